@@ -1,0 +1,12 @@
+// Sub-commands contributed by eval/ (eval, bench, synth) to the texdefrag command line.
+// Each adds itself to `app` and returns the sub-command; the callback sets `exit_code`
+// (0 ok, 1 failure, 2 usage or configuration error).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace texdefrag::cli {
+CLI::App* add_eval_command(CLI::App& app, int& exit_code);   // eval/metrics
+CLI::App* add_bench_command(CLI::App& app, int& exit_code);  // eval/bench
+CLI::App* add_synth_command(CLI::App& app, int& exit_code);  // eval/synth
+}  // namespace texdefrag::cli

@@ -1,0 +1,36 @@
+// Texture page images through OpenImageIO: 8-bit, 1-4 channels, rows top to bottom.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace texdefrag {
+
+struct ImageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct Image {
+  int width = 0, height = 0, channels = 0;
+  std::vector<uint8_t> pixels;  ///< row-major, row 0 is the top of the image, channels interleaved
+
+  uint8_t* at(int x, int y) { return &pixels[(static_cast<size_t>(y) * static_cast<size_t>(width) + static_cast<size_t>(x)) * static_cast<size_t>(channels)]; }
+  const uint8_t* at(int x, int y) const { return &pixels[(static_cast<size_t>(y) * static_cast<size_t>(width) + static_cast<size_t>(x)) * static_cast<size_t>(channels)]; }
+  bool empty() const { return pixels.empty(); }
+};
+
+/// Reads an image (JPEG, PNG, TIFF, anything OpenImageIO reads). Deeper formats are converted to
+/// 8 bits. Throws ImageError naming the file.
+Image read_image(const std::string& path);
+
+/// Reads only the header: width and height. Throws ImageError naming the file.
+void read_image_size(const std::string& path, int& width, int& height);
+
+enum class ImageFormat { Png, Jpeg };
+
+/// Writes an image atomically (temporary file, then rename). jpeg_quality in [1, 100].
+void write_image(const std::string& path, const Image& image, ImageFormat format, int jpeg_quality = 95);
+
+}  // namespace texdefrag

@@ -1,0 +1,78 @@
+// The JSON-configured pipeline: read -> topology -> charts -> detector -> merger -> packer ->
+// texture resampling -> write, with one run report.
+//
+// Config file (configs/*.json):
+//   {
+//     "description": "free text",                                      (optional)
+//     "detector": {"type": "detectors.none", ...options},              (default detectors.none)
+//     "merger":   {"type": "mergers.none", ...options},                (default mergers.none)
+//     "packer":   {"type": "packers.shelf", ...options},               (default packers.shelf)
+//     "texture":  {...options of texture.resample},                     (optional)
+//     "output":   {...options of writers.obj}                           (optional)
+//   }
+// The whole file is validated before any mesh is read; every error names its key
+// ("packer.gutter: = -1 outside [0, 64]") and all errors are reported together.
+#pragma once
+
+#include "texdefrag/stage/registry.h"
+#include "texdefrag/stage/stage.h"
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace texdefrag {
+
+/// One or more configuration errors; what() lists them one per line.
+struct ConfigError : std::runtime_error {
+  explicit ConfigError(std::vector<std::string> errs);
+  std::vector<std::string> errors;
+};
+
+struct StageConfig {
+  std::string section;  ///< "detector", "merger", "packer"
+  std::string type;     ///< qualified stage name
+  Options options;      ///< validated, defaults filled in
+};
+
+struct PipelineConfig {
+  std::string origin;   ///< file path or "<string>"
+  StageConfig detector, merger, packer;
+  Options texture;      ///< texture.resample options
+  Options output;       ///< writers.obj options
+  json effective;       ///< the configuration after overrides and defaults (for the report)
+};
+
+/// Declarations of the framework's own configurable steps (listed by `texdefrag plugins`).
+const StageInfo& texture_stage_info();  ///< "texture.resample"
+const StageInfo& writer_stage_info();   ///< "writers.obj"
+
+/// Parses and validates a configuration. `overrides` are "SECTION_OR_STAGE.OPTION=VALUE" strings
+/// (e.g. "packer.gutter=4" or "packers.shelf.gutter=4"; VALUE is JSON, or a bare string).
+/// Throws ConfigError listing every problem. Loads plugins from the registry on first use.
+PipelineConfig parse_config(const json& config, const std::string& origin,
+                            const std::vector<std::string>& overrides = {});
+/// Reads and parses a config file; JSON syntax errors name the file, line and column.
+PipelineConfig load_config(const std::string& path, const std::vector<std::string>& overrides = {});
+
+struct RunOptions {
+  std::string input;        ///< input OBJ
+  std::string output_dir;   ///< created if missing; must not be the input's folder
+  ProgressFn progress;      ///< may be empty
+  bool write_output = true; ///< false: run the stages and report, write nothing
+};
+
+/// Runs the pipeline. Returns the run report (also written as OUTDIR/<stem>.report.json).
+/// Throws ObjError/ImageError/StageError/ConfigError on failure; never writes partial outputs
+/// under the final names.
+json run_pipeline(const PipelineConfig& config, const RunOptions& options);
+
+/// Builds the output mesh: same positions, normals, faces and order as `input`; one texcoord per
+/// wedge, normalised by the output page sizes; one material per output page named `page_<i>`
+/// (copying the first input material's extra lines) with map_Kd `<stem>_page<i>.<ext>`; untextured
+/// faces keep their input material.
+TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, const Layout& layout,
+                              const std::string& stem, const std::string& image_ext,
+                              const std::string& output_dir);
+
+}  // namespace texdefrag

@@ -1,0 +1,73 @@
+// Stage registry and plugin loading.
+//
+// Every stage, built-in or not, is a shared module exporting
+//   extern "C" int texdefrag_plugin_register(texdefrag::Registry* r, int abi_version);
+// (use TEXDEFRAG_PLUGIN below). Modules are loaded from the build's plugin folder (compiled in) and
+// from each folder of TEXDEFRAG_PLUGIN_PATH (':'-separated). A name registered twice is an error
+// naming both module files; a module that fails to load is an error naming the file and dlerror().
+#pragma once
+
+#include "texdefrag/stage/stage.h"
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace texdefrag {
+
+constexpr int kPluginAbiVersion = 1;
+
+struct RegistryError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class Registry {
+ public:
+  /// The process-wide registry.
+  static Registry& instance();
+
+  /// Adds a stage. Throws RegistryError when the name is malformed (`kind.name`, lower case, digits
+  /// and '_'), its prefix does not match info.kind, or the name is already registered.
+  void add(StageInfo info, const std::string& source);
+
+  /// Loads every module in the default folder and in TEXDEFRAG_PLUGIN_PATH, once. Throws on the first
+  /// broken module or duplicate name.
+  void load_plugins();
+  /// Loads one module file.
+  void load_module(const std::string& path);
+
+  const StageInfo* find(const std::string& name) const;
+  /// Creates a stage by name; throws RegistryError with the nearest name suggested.
+  std::unique_ptr<Stage> create(const std::string& name) const;
+  std::vector<const StageInfo*> list() const;
+  std::vector<std::string> names() const;
+  const std::string& source_of(const std::string& name) const;
+
+  /// Folders searched by load_plugins(), in order.
+  static std::vector<std::string> plugin_dirs();
+
+ private:
+  struct Entry { StageInfo info; std::string source; };
+  std::map<std::string, Entry> stages_;
+  bool loaded_ = false;
+  std::string current_module_;
+};
+
+}  // namespace texdefrag
+
+/// Defines the module entry point registering the listed stage classes. Each class needs a static
+/// `static texdefrag::StageInfo info();`.
+#define TEXDEFRAG_PLUGIN(...)                                                                \
+  extern "C" __attribute__((visibility("default"))) int texdefrag_plugin_register(           \
+      texdefrag::Registry* r, int abi) {                                                     \
+    if (abi != texdefrag::kPluginAbiVersion) return 1;                                       \
+    texdefrag::detail::register_all<__VA_ARGS__>(*r);                                        \
+    return 0;                                                                                \
+  }
+
+namespace texdefrag::detail {
+template <class... S>
+void register_all(Registry& r) {
+  (r.add(S::info(), ""), ...);
+}
+}  // namespace texdefrag::detail

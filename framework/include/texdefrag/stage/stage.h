@@ -1,0 +1,107 @@
+// Stage interfaces: detectors partition faces into regions, mergers change the atlas's charts and
+// UVs, packers place charts on pages. One static StageInfo per stage (PDAL style): its qualified
+// name `kind.name` is the registry key, the JSON "type", the error prefix and the report node.
+#pragma once
+
+#include "texdefrag/core/charts.h"
+#include "texdefrag/core/mesh.h"
+#include "texdefrag/core/topology.h"
+#include "texdefrag/stage/options.h"
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace texdefrag {
+
+/// Progress callback: (stage name, fraction in [0,1]). Return false to cancel. Called from the
+/// thread running the stage; the framework rate-limits it to changes.
+using ProgressFn = std::function<bool(const std::string& stage, double fraction)>;
+
+/// Thrown when a stage cannot run on its input (bad labels file, mesh the stage cannot handle...).
+/// The message names the stage and the cause. The pipeline turns it into exit code 1.
+struct StageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+/// Thrown by the progress wrapper when the user cancels.
+struct Cancelled : std::runtime_error {
+  Cancelled() : std::runtime_error("cancelled") {}
+};
+
+/// A partition of the faces into regions: merges only happen between charts of the same region.
+struct Regions {
+  std::vector<int> face_region;  ///< region per face, -1 for faces outside any region (untextured)
+  int num_regions = 0;
+};
+
+/// Placement of the atlas on output pages, produced by a packer.
+struct Layout {
+  struct PageSize { int width = 0, height = 0; };
+  std::vector<PageSize> pages;      ///< output pages
+  std::vector<int> chart_page;      ///< output page per chart
+  std::vector<Vec2> wedge_uv;       ///< final per-wedge position in texels of its output page (y up)
+};
+
+/// Everything a stage sees. Stages read what precedes them and write only their own product.
+struct StageContext {
+  const TexturedMesh* mesh = nullptr;   ///< the input, never modified
+  const Topology* topology = nullptr;
+  const ChartSet* input_charts = nullptr;  ///< charts of the input UVs
+  Regions regions;                      ///< written by the detector
+  Atlas atlas;                          ///< starts as input_charts->atlas; mergers change it
+  Layout layout;                        ///< written by the packer
+  json* report = nullptr;               ///< this stage's node of the run report
+  ProgressFn progress;                  ///< never null inside a stage (framework supplies a no-op)
+  std::string input_path;               ///< the input OBJ path (for sidecar files), may be empty
+  std::string output_dir;               ///< where outputs go, may be empty (no output)
+
+  /// Reports progress; throws Cancelled when the callback asks to stop.
+  void step(const std::string& stage, double fraction) const;
+};
+
+struct StageInfo;
+
+class Stage {
+ public:
+  virtual ~Stage() = default;
+  /// Called once with validated options before any run.
+  virtual void set_options(const Options& options) { options_ = options; }
+  const Options& options() const { return options_; }
+
+ protected:
+  Options options_;
+};
+
+class Detector : public Stage {
+ public:
+  /// Fills ctx.regions. Must assign every textured face a region in [0, num_regions).
+  virtual void detect(StageContext& ctx) = 0;
+};
+
+class Merger : public Stage {
+ public:
+  /// Changes ctx.atlas (charts, wedges, UVs). Must keep every face and leave no flipped or
+  /// overlapping triangles that were not in the input; must call atlas.compact() at the end.
+  virtual void merge(StageContext& ctx) = 0;
+};
+
+class Packer : public Stage {
+ public:
+  /// Fills ctx.layout from ctx.atlas. Charts must not overlap (gutter kept between them).
+  virtual void pack(StageContext& ctx) = 0;
+};
+
+enum class StageKind { Detector, Merger, Packer };
+const char* to_string(StageKind k);
+
+struct StageInfo {
+  std::string name;         ///< qualified, `detectors.region_growing`
+  StageKind kind = StageKind::Detector;
+  std::string description;  ///< one line
+  std::string doc;          ///< doc page path relative to the repository root
+  std::vector<OptionSpec> options;
+  std::function<std::unique_ptr<Stage>()> create;
+};
+
+}  // namespace texdefrag

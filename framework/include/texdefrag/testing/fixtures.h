@@ -1,0 +1,41 @@
+// Test support shared by every test executable: real-data paths that skip cleanly when absent,
+// fresh temporary folders, and small hand-built meshes whose answers can be checked by hand.
+#pragma once
+
+#include "texdefrag/core/mesh.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace texdefrag::testing {
+
+/// Absolute path of a file or folder under ../shared/data, or "" when it is absent.
+std::string shared_data(const std::string& relative);
+
+/// The real models under ../shared/data (OBJ paths) that are present, smallest first.
+/// `max_faces` filters by the documented sizes (0 = all).
+std::vector<std::string> real_models(size_t max_faces = 0);
+
+/// A new empty folder under the build tree's test-tmp/, named after the running test.
+std::string temp_dir(const std::string& suffix = "");
+
+/// Writes a solid-colour or gradient RGB PNG of the given size (for hand-built meshes' pages).
+void write_test_image(const std::string& path, int width, int height, bool gradient = true);
+
+/// A flat nx-by-ny grid of unit quads (2 triangles each) in the z=0 plane, one page of
+/// page_size^2 texels, one chart whose UVs map the grid to [margin, 1-margin]^2.
+/// The page's image_path points to `image_path` (not created here).
+TexturedMesh grid_mesh(int nx, int ny, int page_size, const std::string& image_path, double margin = 0.1);
+
+/// Like grid_mesh, but every triangle is its own chart (positions and UVs duplicated per face,
+/// as photogrammetry exports do), laid out in a row of cells on the page.
+TexturedMesh fragmented_grid_mesh(int nx, int ny, int page_size, const std::string& image_path);
+
+}  // namespace texdefrag::testing
+
+/// Skips the test with a message when a ../shared/data path is absent; else binds `var` to it.
+#define TEXDEFRAG_REQUIRE_DATA(var, relative)                                              \
+  const std::string var = ::texdefrag::testing::shared_data(relative);                      \
+  if (var.empty()) GTEST_SKIP() << "shared data absent: ../shared/data/" << (relative)

@@ -1,0 +1,14 @@
+// Process memory figures for the run report.
+#pragma once
+
+#include <cstddef>
+
+namespace texdefrag {
+/// Peak resident set size of this process so far, bytes (VmHWM); 0 where unknown.
+size_t peak_rss_bytes();
+/// Current resident set size, bytes (VmRSS); 0 where unknown.
+size_t current_rss_bytes();
+/// Resets the peak counter where the kernel allows (writes 5 to /proc/self/clear_refs); returns
+/// false when it cannot, in which case peak figures are process-wide.
+bool reset_peak_rss();
+}  // namespace texdefrag

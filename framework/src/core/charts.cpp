@@ -1,0 +1,279 @@
+#include "texdefrag/core/charts.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <map>
+#include <numeric>
+
+namespace texdefrag {
+namespace {
+
+struct UnionFind {
+  std::vector<int> p;
+  explicit UnionFind(size_t n) : p(n) { std::iota(p.begin(), p.end(), 0); }
+  int find(int x) {
+    while (p[static_cast<size_t>(x)] != x) {
+      p[static_cast<size_t>(x)] = p[static_cast<size_t>(p[static_cast<size_t>(x)])];
+      x = p[static_cast<size_t>(x)];
+    }
+    return x;
+  }
+  void unite(int a, int b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) p[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
+  }
+};
+
+bool same_tex(const TexturedMesh& m, int f, int k, int g, int l) {
+  const int a = m.faces[static_cast<size_t>(f)].vt[static_cast<size_t>(k)];
+  const int b = m.faces[static_cast<size_t>(g)].vt[static_cast<size_t>(l)];
+  if (a == b) return true;
+  return m.texcoords[static_cast<size_t>(a)] == m.texcoords[static_cast<size_t>(b)];
+}
+
+/// For a continuous pair, the corner of g matching corner (k) of f and corner (k+1) of f.
+bool matching_corners(const Topology& t, int f, int k, int g, int l, int& gk, int& gk1) {
+  const auto& fv = t.face_vertex[static_cast<size_t>(f)];
+  const auto& gv = t.face_vertex[static_cast<size_t>(g)];
+  const int fa = fv[static_cast<size_t>(k)], fb = fv[static_cast<size_t>((k + 1) % 3)];
+  const int ga = gv[static_cast<size_t>(l)], gb = gv[static_cast<size_t>((l + 1) % 3)];
+  if (fa == ga && fb == gb) { gk = l; gk1 = (l + 1) % 3; return true; }
+  if (fa == gb && fb == ga) { gk = (l + 1) % 3; gk1 = l; return true; }
+  return false;
+}
+
+}  // namespace
+
+bool uv_continuous(const TexturedMesh& mesh, const Topology& topo, int f, int k, int g, int l) {
+  const Face& F = mesh.faces[static_cast<size_t>(f)];
+  const Face& G = mesh.faces[static_cast<size_t>(g)];
+  if (F.page == kNoPage || G.page == kNoPage || F.page != G.page) return false;
+  if (topo.face_degenerate[static_cast<size_t>(f)] || topo.face_degenerate[static_cast<size_t>(g)]) return false;
+  int gk, gk1;
+  if (!matching_corners(topo, f, k, g, l, gk, gk1)) return false;
+  return same_tex(mesh, f, k, g, gk) && same_tex(mesh, f, (k + 1) % 3, g, gk1);
+}
+
+int Atlas::compact() {
+  std::vector<int> remap(static_cast<size_t>(num_charts), -1);
+  std::vector<int> new_page;
+  int n = 0;
+  for (int& c : face_chart) {
+    if (c < 0) continue;
+    int& r = remap[static_cast<size_t>(c)];
+    if (r < 0) {
+      r = n++;
+      new_page.push_back(chart_page[static_cast<size_t>(c)]);
+    }
+    c = r;
+  }
+  std::vector<int> wremap(wedge_uv.size(), -1);
+  std::vector<Vec2> nuv;
+  std::vector<int> nvert;
+  for (auto& fw : face_wedge)
+    for (int& w : fw) {
+      if (w < 0) continue;
+      int& r = wremap[static_cast<size_t>(w)];
+      if (r < 0) {
+        r = static_cast<int>(nuv.size());
+        nuv.push_back(wedge_uv[static_cast<size_t>(w)]);
+        nvert.push_back(wedge_vertex[static_cast<size_t>(w)]);
+      }
+      w = r;
+    }
+  wedge_uv.swap(nuv);
+  wedge_vertex.swap(nvert);
+  chart_page.swap(new_page);
+  num_charts = n;
+  return n;
+}
+
+std::vector<std::vector<int>> Atlas::chart_faces() const {
+  std::vector<std::vector<int>> out(static_cast<size_t>(num_charts));
+  for (size_t f = 0; f < face_chart.size(); ++f)
+    if (face_chart[f] >= 0) out[static_cast<size_t>(face_chart[f])].push_back(static_cast<int>(f));
+  return out;
+}
+
+double atlas_face_area(const Atlas& atlas, int f) {
+  const auto& w = atlas.face_wedge[static_cast<size_t>(f)];
+  if (w[0] < 0) return 0;
+  const Vec2& a = atlas.wedge_uv[static_cast<size_t>(w[0])];
+  const Vec2& b = atlas.wedge_uv[static_cast<size_t>(w[1])];
+  const Vec2& c = atlas.wedge_uv[static_cast<size_t>(w[2])];
+  return 0.5 * ((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
+}
+
+std::vector<ChartStats> chart_stats(const TexturedMesh& mesh, const Topology& topo, const Atlas& atlas) {
+  const size_t nc = static_cast<size_t>(atlas.num_charts);
+  std::vector<ChartStats> st(nc);
+  std::vector<Eigen::Matrix3d> second(nc, Eigen::Matrix3d::Zero());
+  std::vector<Vec3> first(nc, Vec3::Zero()), ref(nc, Vec3::Zero());
+  std::vector<uint8_t> has_ref(nc, 0);
+  std::vector<Eigen::Matrix3d> pts2(nc, Eigen::Matrix3d::Zero());
+  std::vector<Vec3> pts1(nc, Vec3::Zero());
+  std::vector<int> npts(nc, 0);
+  for (size_t f = 0; f < atlas.face_chart.size(); ++f) {
+    const int c = atlas.face_chart[f];
+    if (c < 0) continue;
+    ChartStats& s = st[static_cast<size_t>(c)];
+    s.page = atlas.chart_page[static_cast<size_t>(c)];
+    ++s.faces;
+    s.uv_area += std::abs(atlas_face_area(atlas, static_cast<int>(f)));
+    if (!has_ref[static_cast<size_t>(c)]) {
+      ref[static_cast<size_t>(c)] = mesh.corner_position(f, 0);
+      has_ref[static_cast<size_t>(c)] = 1;
+    }
+    const Vec3 a = mesh.corner_position(f, 0) - ref[static_cast<size_t>(c)];
+    const Vec3 b = mesh.corner_position(f, 1) - ref[static_cast<size_t>(c)];
+    const Vec3 cc = mesh.corner_position(f, 2) - ref[static_cast<size_t>(c)];
+    const double A = 0.5 * (b - a).cross(cc - a).norm();
+    s.area_3d += A;
+    const Vec3 sum = a + b + cc;
+    first[static_cast<size_t>(c)] += A * sum / 3.0;
+    second[static_cast<size_t>(c)] += A / 12.0 * (a * a.transpose() + b * b.transpose() + cc * cc.transpose() + sum * sum.transpose());
+    for (const Vec3* p : {&a, &b, &cc}) {
+      pts1[static_cast<size_t>(c)] += *p;
+      pts2[static_cast<size_t>(c)] += *p * p->transpose();
+      ++npts[static_cast<size_t>(c)];
+    }
+    // Border edges: local edge k is a border of chart c unless some other face of c continues it.
+    for (int k = 0; k < 3; ++k) {
+      const Edge& e = topo.edges[static_cast<size_t>(topo.face_edge[f][static_cast<size_t>(k)])];
+      bool interior = false;
+      for (int i = 0; i < e.num_faces && !interior; ++i) {
+        const EdgeIncidence& in = topo.edge_faces[static_cast<size_t>(e.first_incidence + i)];
+        if (in.face == static_cast<int>(f) || atlas.face_chart[static_cast<size_t>(in.face)] != c) continue;
+        // Continuous in the atlas: the two corners share wedges at both endpoints.
+        const auto& fw = atlas.face_wedge[f];
+        const auto& gw = atlas.face_wedge[static_cast<size_t>(in.face)];
+        const int w0 = fw[static_cast<size_t>(k)], w1 = fw[static_cast<size_t>((k + 1) % 3)];
+        const int g0 = gw[static_cast<size_t>(in.local)], g1 = gw[static_cast<size_t>((in.local + 1) % 3)];
+        interior = (w0 == g0 && w1 == g1) || (w0 == g1 && w1 == g0);
+      }
+      if (!interior) {
+        const Vec2& p = atlas.wedge_uv[static_cast<size_t>(atlas.face_wedge[f][static_cast<size_t>(k)])];
+        const Vec2& q = atlas.wedge_uv[static_cast<size_t>(atlas.face_wedge[f][static_cast<size_t>((k + 1) % 3)])];
+        s.uv_border += (p - q).norm();
+      }
+    }
+  }
+  for (size_t c = 0; c < nc; ++c) {
+    ChartStats& s = st[c];
+    Eigen::Matrix3d cov;
+    Vec3 mu;
+    if (s.area_3d > 0) {
+      mu = first[c] / s.area_3d;
+      cov = second[c] / s.area_3d - mu * mu.transpose();
+    } else if (npts[c] > 0) {
+      mu = pts1[c] / npts[c];
+      cov = pts2[c] / npts[c] - mu * mu.transpose();
+    } else {
+      continue;
+    }
+    s.centroid = mu + ref[c];
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+    s.eigenvalues = es.eigenvalues().cwiseMax(0.0);
+    s.normal = es.eigenvectors().col(0);
+    // Orient the plane normal with the area-weighted face normals.
+    (void)0;
+  }
+  // Orientation pass.
+  std::vector<Vec3> nsum(nc, Vec3::Zero());
+  for (size_t f = 0; f < atlas.face_chart.size(); ++f) {
+    const int c = atlas.face_chart[f];
+    if (c < 0) continue;
+    const Vec3& a = mesh.corner_position(f, 0);
+    nsum[static_cast<size_t>(c)] += (mesh.corner_position(f, 1) - a).cross(mesh.corner_position(f, 2) - a);
+  }
+  for (size_t c = 0; c < nc; ++c)
+    if (st[c].normal.dot(nsum[c]) < 0) st[c].normal = -st[c].normal;
+  return st;
+}
+
+ChartSet build_charts(const TexturedMesh& mesh, const Topology& topo) {
+  const size_t nf = mesh.faces.size();
+  UnionFind faces(nf), corners(nf * 3);
+  std::vector<uint8_t> pair_continuous;
+  for (const Edge& e : topo.edges) {
+    if (e.a == e.b) continue;
+    for (int i = 0; i < e.num_faces; ++i)
+      for (int j = i + 1; j < e.num_faces; ++j) {
+        const EdgeIncidence& x = topo.edge_faces[static_cast<size_t>(e.first_incidence + i)];
+        const EdgeIncidence& y = topo.edge_faces[static_cast<size_t>(e.first_incidence + j)];
+        if (!uv_continuous(mesh, topo, x.face, x.local, y.face, y.local)) continue;
+        faces.unite(x.face, y.face);
+        int gk, gk1;
+        matching_corners(topo, x.face, x.local, y.face, y.local, gk, gk1);
+        corners.unite(x.face * 3 + x.local, y.face * 3 + gk);
+        corners.unite(x.face * 3 + (x.local + 1) % 3, y.face * 3 + gk1);
+      }
+  }
+  ChartSet cs;
+  Atlas& at = cs.atlas;
+  at.face_chart.assign(nf, -1);
+  at.face_wedge.assign(nf, {-1, -1, -1});
+  std::vector<int> chart_of_root(nf, -1), wedge_of_root(nf * 3, -1);
+  for (size_t f = 0; f < nf; ++f) {
+    if (mesh.faces[f].page == kNoPage) continue;
+    const int r = faces.find(static_cast<int>(f));
+    int& c = chart_of_root[static_cast<size_t>(r)];
+    if (c < 0) {
+      c = at.num_charts++;
+      at.chart_page.push_back(mesh.faces[f].page);
+    }
+    at.face_chart[f] = c;
+    for (int k = 0; k < 3; ++k) {
+      const int cr = corners.find(static_cast<int>(f * 3 + static_cast<size_t>(k)));
+      int& w = wedge_of_root[static_cast<size_t>(cr)];
+      if (w < 0) {
+        w = static_cast<int>(at.wedge_uv.size());
+        at.wedge_uv.push_back(mesh.corner_texel(f, k));
+        at.wedge_vertex.push_back(topo.face_vertex[f][static_cast<size_t>(k)]);
+      }
+      at.face_wedge[f][static_cast<size_t>(k)] = w;
+    }
+  }
+  cs.stats = chart_stats(mesh, topo, at);
+  for (const ChartStats& s : cs.stats) {
+    if (s.uv_area == 0) ++cs.zero_area_charts;
+    cs.uv_border_length += s.uv_border;
+  }
+  // Seams and chains.
+  std::map<std::pair<int, int>, int> chain_of;
+  for (size_t ei = 0; ei < topo.edges.size(); ++ei) {
+    const Edge& e = topo.edges[ei];
+    if (e.num_faces != 2 || e.a == e.b) continue;
+    const EdgeIncidence& x = topo.edge_faces[static_cast<size_t>(e.first_incidence)];
+    const EdgeIncidence& y = topo.edge_faces[static_cast<size_t>(e.first_incidence + 1)];
+    const int ca = at.face_chart[static_cast<size_t>(x.face)], cb = at.face_chart[static_cast<size_t>(y.face)];
+    if (ca < 0 || cb < 0) continue;
+    if (uv_continuous(mesh, topo, x.face, x.local, y.face, y.local)) continue;
+    const auto key = std::make_pair(std::min(ca, cb), std::max(ca, cb));
+    auto it = chain_of.find(key);
+    if (it == chain_of.end()) {
+      it = chain_of.emplace(key, static_cast<int>(cs.chains.size())).first;
+      SeamChain ch;
+      ch.chart_a = key.first;
+      ch.chart_b = key.second;
+      cs.chains.push_back(ch);
+    }
+    SeamChain& ch = cs.chains[static_cast<size_t>(it->second)];
+    ch.edges.push_back(static_cast<int>(ei));
+    const double len = (mesh.positions[static_cast<size_t>(topo.position_of_vertex[static_cast<size_t>(e.a)])] -
+                        mesh.positions[static_cast<size_t>(topo.position_of_vertex[static_cast<size_t>(e.b)])]).norm();
+    ch.length_3d += len;
+    cs.seam_length_3d += len;
+    ++cs.seam_edges;
+  }
+  cs.chart_chains.assign(static_cast<size_t>(at.num_charts), {});
+  for (size_t i = 0; i < cs.chains.size(); ++i) {
+    cs.chart_chains[static_cast<size_t>(cs.chains[i].chart_a)].push_back(static_cast<int>(i));
+    if (cs.chains[i].chart_b != cs.chains[i].chart_a)
+      cs.chart_chains[static_cast<size_t>(cs.chains[i].chart_b)].push_back(static_cast<int>(i));
+  }
+  return cs;
+}
+
+}  // namespace texdefrag

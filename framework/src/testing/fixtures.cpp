@@ -1,0 +1,141 @@
+#include "texdefrag/testing/fixtures.h"
+
+#include "texdefrag/io/image.h"
+#include "texdefrag/util/paths.h"
+
+#include <filesystem>
+
+namespace fs = std::filesystem;
+
+namespace texdefrag::testing {
+
+std::string shared_data(const std::string& relative) {
+  const fs::path p = fs::path(shared_data_dir()) / relative;
+  std::error_code ec;
+  return fs::exists(p, ec) ? fs::absolute(p).string() : std::string();
+}
+
+std::vector<std::string> real_models(size_t max_faces) {
+  // note: sizes from ../shared/data/README.md, smallest first; filter without reading the files.
+  static const std::pair<const char*, size_t> kModels[] = {
+      {"contextcapture/rural_t007_078_L15/t078_L15.obj", 2573},
+      {"contextcapture/rural_t007_078_L17/t078_L17.obj", 8974},
+      {"ycb_banana/textured_simple_reoriented.obj", 15700},
+      {"contextcapture/prod5_t017_L18/t017_L18.obj", 22695},
+      {"contextcapture/prod5_t015_L18/t015_L18.obj", 23334},
+      {"contextcapture/prod5_t016_L18/t016_L18.obj", 23962},
+      {"contextcapture/prod5_t016_L19/t016_L19.obj", 46382},
+  };
+  std::vector<std::string> out;
+  for (const auto& m : kModels) {
+    if (max_faces && m.second > max_faces) continue;
+    const std::string p = shared_data(m.first);
+    if (!p.empty()) out.push_back(p);
+  }
+  return out;
+}
+
+std::string temp_dir(const std::string& suffix) {
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "test";
+  for (char& c : name)
+    if (c == '/') c = '_';
+  const fs::path p = fs::temp_directory_path() / "texdefrag-tests" / (name + suffix);
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p.string();
+}
+
+void write_test_image(const std::string& path, int width, int height, bool gradient) {
+  Image img;
+  img.width = width;
+  img.height = height;
+  img.channels = 3;
+  img.pixels.resize(static_cast<size_t>(width) * static_cast<size_t>(height) * 3);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      uint8_t* p = img.at(x, y);
+      if (gradient) {
+        p[0] = static_cast<uint8_t>((x * 255) / std::max(1, width - 1));
+        p[1] = static_cast<uint8_t>((y * 255) / std::max(1, height - 1));
+        p[2] = static_cast<uint8_t>(((x / 4 + y / 4) % 2) * 200);
+      } else {
+        p[0] = 200; p[1] = 120; p[2] = 40;
+      }
+    }
+  write_image(path, img, ImageFormat::Png);
+}
+
+namespace {
+void add_page(TexturedMesh& m, int page_size, const std::string& image_path) {
+  Material mat;
+  mat.name = "page0";
+  mat.map_kd = fs::path(image_path).filename().string();
+  m.materials.push_back(mat);
+  Page p;
+  p.material = "page0";
+  p.image_path = image_path;
+  p.width = page_size;
+  p.height = page_size;
+  m.pages.push_back(p);
+}
+}  // namespace
+
+TexturedMesh grid_mesh(int nx, int ny, int page_size, const std::string& image_path, double margin) {
+  TexturedMesh m;
+  add_page(m, page_size, image_path);
+  for (int j = 0; j <= ny; ++j)
+    for (int i = 0; i <= nx; ++i) {
+      m.positions.emplace_back(i, j, 0);
+      m.texcoords.emplace_back(margin + (1 - 2 * margin) * i / nx, margin + (1 - 2 * margin) * j / ny);
+    }
+  auto id = [&](int i, int j) { return j * (nx + 1) + i; };
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      for (const auto& tri : {std::array<int, 3>{id(i, j), id(i + 1, j), id(i + 1, j + 1)},
+                              std::array<int, 3>{id(i, j), id(i + 1, j + 1), id(i, j + 1)}}) {
+        Face f;
+        f.v = tri;
+        f.vt = tri;
+        f.material = 0;
+        f.page = 0;
+        f.source_line = static_cast<int>(m.faces.size()) + 1;
+        m.faces.push_back(f);
+      }
+    }
+  return m;
+}
+
+TexturedMesh fragmented_grid_mesh(int nx, int ny, int page_size, const std::string& image_path) {
+  TexturedMesh m;
+  add_page(m, page_size, image_path);
+  const int n = 2 * nx * ny;
+  const int cols = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n))));
+  const double cell = 1.0 / cols;
+  int t = 0;
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i)
+      for (int h = 0; h < 2; ++h, ++t) {
+        const Vec3 a(i, j, 0), b(i + 1, j, 0), c(i + 1, j + 1, 0), d(i, j + 1, 0);
+        const std::array<Vec3, 3> tri = h == 0 ? std::array<Vec3, 3>{a, b, c} : std::array<Vec3, 3>{a, c, d};
+        const double u0 = (t % cols) * cell + 0.1 * cell, v0 = (t / cols) * cell + 0.1 * cell, s = 0.8 * cell;
+        // Each triangle's UVs: same shape as 3D (up to scale), own cell.
+        const std::array<Vec2, 3> uv = h == 0
+            ? std::array<Vec2, 3>{Vec2(u0, v0), Vec2(u0 + s, v0), Vec2(u0 + s, v0 + s)}
+            : std::array<Vec2, 3>{Vec2(u0, v0), Vec2(u0 + s, v0 + s), Vec2(u0, v0 + s)};
+        Face f;
+        for (int k = 0; k < 3; ++k) {
+          f.v[static_cast<size_t>(k)] = static_cast<int>(m.positions.size());
+          m.positions.push_back(tri[static_cast<size_t>(k)]);
+          f.vt[static_cast<size_t>(k)] = static_cast<int>(m.texcoords.size());
+          m.texcoords.push_back(uv[static_cast<size_t>(k)]);
+        }
+        f.material = 0;
+        f.page = 0;
+        f.source_line = t + 1;
+        m.faces.push_back(f);
+      }
+  return m;
+}
+
+}  // namespace texdefrag::testing
