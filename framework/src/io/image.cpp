@@ -1,0 +1,136 @@
+// Texture page image IO through OpenImageIO (see texdefrag/io/image.h and docs/io.md).
+#include "texdefrag/io/image.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <memory>
+
+namespace fs = std::filesystem;
+
+namespace texdefrag {
+namespace {
+
+/// Opens an image for reading or throws ImageError naming the file.
+std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw ImageError(path + ": no such file");
+  if (!fs::is_regular_file(path, ec)) throw ImageError(path + ": not a regular file");
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) {
+    std::string why = OIIO::geterror();
+    if (why.empty()) why = "unknown error";
+    throw ImageError(path + ": cannot read image: " + why);
+  }
+  const OIIO::ImageSpec& spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+    throw ImageError(path + ": image has no pixels (" + std::to_string(spec.width) + "x" +
+                     std::to_string(spec.height) + ", " + std::to_string(spec.nchannels) + " channels)");
+  if (spec.depth > 1) throw ImageError(path + ": volume images are not supported");
+  return in;
+}
+
+std::string lower_extension(const fs::path& p) {
+  std::string e = p.extension().string();
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return e;
+}
+
+}  // namespace
+
+Image read_image(const std::string& path) {
+  auto in = open_input(path);
+  const OIIO::ImageSpec& spec = in->spec();
+  Image img;
+  img.width = spec.width;
+  img.height = spec.height;
+  // note: 1-4 channels are kept; further channels (e.g. extra TIFF samples) are not read.
+  img.channels = std::min(spec.nchannels, 4);
+  const size_t bytes = static_cast<size_t>(img.width) * static_cast<size_t>(img.height) * static_cast<size_t>(img.channels);
+  try {
+    img.pixels.resize(bytes);
+  } catch (const std::bad_alloc&) {
+    throw ImageError(path + ": image too large to hold in memory (" + std::to_string(img.width) + "x" + std::to_string(img.height) + ")");
+  }
+  // OpenImageIO converts any pixel type to UINT8 (scaling 16-bit, clamping float to [0, 1]).
+  if (!in->read_image(0, 0, 0, img.channels, OIIO::TypeDesc::UINT8, img.pixels.data())) {
+    std::string why = in->geterror();
+    throw ImageError(path + ": cannot read pixels: " + (why.empty() ? std::string("unknown error") : why));
+  }
+  in->close();
+  return img;
+}
+
+void read_image_size(const std::string& path, int& width, int& height) {
+  auto in = open_input(path);
+  width = in->spec().width;
+  height = in->spec().height;
+  in->close();
+}
+
+void write_image(const std::string& path, const Image& image, ImageFormat format, int jpeg_quality) {
+  if (image.width <= 0 || image.height <= 0)
+    throw ImageError(path + ": cannot write an empty image (" + std::to_string(image.width) + "x" + std::to_string(image.height) + ")");
+  if (image.channels < 1 || image.channels > 4)
+    throw ImageError(path + ": cannot write an image with " + std::to_string(image.channels) + " channels (expected 1-4)");
+  const size_t expected = static_cast<size_t>(image.width) * static_cast<size_t>(image.height) * static_cast<size_t>(image.channels);
+  if (image.pixels.size() != expected)
+    throw ImageError(path + ": pixel buffer holds " + std::to_string(image.pixels.size()) + " bytes, expected " + std::to_string(expected));
+  if (format == ImageFormat::Jpeg && (jpeg_quality < 1 || jpeg_quality > 100))
+    throw ImageError(path + ": JPEG quality " + std::to_string(jpeg_quality) + " outside [1, 100]");
+
+  const fs::path target(path);
+  const std::string ext = lower_extension(target);
+  const bool ext_ok = format == ImageFormat::Png ? ext == ".png" : (ext == ".jpg" || ext == ".jpeg");
+  if (!ext_ok)
+    throw ImageError(path + ": file extension does not match the format (expected " +
+                     (format == ImageFormat::Png ? std::string(".png") : std::string(".jpg or .jpeg")) + ")");
+
+  // note: the temporary name keeps the format's extension, since OpenImageIO picks its writer by it.
+  static std::atomic<unsigned> counter{0};
+  const fs::path tmp = target.parent_path() / ("." + target.stem().string() + ".tmp-" + std::to_string(::getpid()) +
+                                               "-" + std::to_string(counter++) + ext);
+  auto out = OIIO::ImageOutput::create(tmp.string());
+  if (!out) throw ImageError(path + ": no image writer for " + ext + ": " + OIIO::geterror());
+
+  // JPEG stores 1 or 3 channels: an alpha channel (2 or 4 channels) is left out.
+  int channels = image.channels;
+  if (format == ImageFormat::Jpeg && (channels == 2 || channels == 4)) channels -= 1;
+  OIIO::ImageSpec spec(image.width, image.height, channels, OIIO::TypeDesc::UINT8);
+  if (format == ImageFormat::Jpeg) {
+    spec.attribute("Compression", "jpeg:" + std::to_string(jpeg_quality));
+    spec.attribute("CompressionQuality", jpeg_quality);
+  }
+  std::error_code ec;
+  if (!out->open(tmp.string(), spec)) {
+    const std::string why = out->geterror();
+    fs::remove(tmp, ec);
+    throw ImageError(path + ": cannot create " + tmp.string() + ": " + why);
+  }
+  const auto px = static_cast<OIIO::stride_t>(image.channels);
+  const bool ok = out->write_image(OIIO::TypeDesc::UINT8, image.pixels.data(), px, px * image.width);
+  const std::string write_error = ok ? std::string() : out->geterror();
+  const bool closed = out->close();
+  const std::string close_error = closed ? std::string() : out->geterror();
+  out.reset();
+  if (!ok || !closed) {
+    fs::remove(tmp, ec);
+    throw ImageError(path + ": write failed: " + (ok ? close_error : write_error));
+  }
+  if (std::rename(tmp.c_str(), target.c_str()) != 0) {
+    const int e = errno;
+    fs::remove(tmp, ec);
+    throw ImageError(path + ": cannot rename " + tmp.string() + " to it: " + std::strerror(e));
+  }
+}
+
+}  // namespace texdefrag
