@@ -1,5 +1,6 @@
 #include "texdefrag/core/distortion.h"
 
+#include <Eigen/LU>
 #include <Eigen/SVD>
 #include <cmath>
 #include <limits>

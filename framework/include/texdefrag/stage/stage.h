@@ -105,3 +105,17 @@ struct StageInfo {
 };
 
 }  // namespace texdefrag
+
+namespace texdefrag {
+
+/// Validated options of `info` from a JSON object (its key "type", if any, is skipped). Unknown
+/// keys (with the nearest valid one suggested), wrong types and out-of-range values are appended
+/// to `errors` as "WHERE: 'KEY' message"; declared defaults fill the missing keys.
+Options make_options(const StageInfo& info, const json& values, const std::string& where,
+                     std::vector<std::string>& errors);
+
+/// Declared defaults with `overrides` applied; throws std::invalid_argument listing the errors.
+/// Convenient in tests: default_options(S::info(), {{"angle_threshold_deg", 30}}).
+Options default_options(const StageInfo& info, const json& overrides = json::object());
+
+}  // namespace texdefrag

@@ -1,0 +1,218 @@
+// texdefrag command line: run a pipeline, list and describe stages, evaluate, benchmark, synthesise.
+// Exit codes: 0 ok, 1 failure (bad input data, stage error), 2 usage or configuration error.
+#include "commands.h"
+
+#include "texdefrag/io/image.h"
+#include "texdefrag/io/obj.h"
+#include "texdefrag/pipeline/pipeline.h"
+
+#include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <cstdio>
+#include <iostream>
+
+using namespace texdefrag;
+
+namespace {
+
+/// A one-line progress bar on a terminal; silent otherwise.
+ProgressFn make_progress(bool quiet) {
+  if (quiet || !isatty(STDERR_FILENO)) return nullptr;
+  return [](const std::string& stage, double f) {
+    const int width = 30;
+    const int filled = static_cast<int>(f * width + 0.5);
+    std::fprintf(stderr, "\r%-26s [%s%s] %3d%%", stage.c_str(), std::string(static_cast<size_t>(filled), '#').c_str(),
+                 std::string(static_cast<size_t>(width - filled), ' ').c_str(), static_cast<int>(f * 100 + 0.5));
+    if (f >= 1.0) std::fprintf(stderr, "\r%-70s\r", "");
+    std::fflush(stderr);
+    return true;
+  };
+}
+
+std::string option_range(const OptionSpec& o) {
+  if (o.type == OptionType::Enum) {
+    std::string s;
+    for (const auto& c : o.choices) s += (s.empty() ? "" : "|") + c;
+    return s;
+  }
+  if (!o.min && !o.max) return "";
+  std::ostringstream ss;
+  ss << "[" << (o.min ? std::to_string(*o.min) : "-inf") << ", " << (o.max ? std::to_string(*o.max) : "inf") << "]";
+  std::string s = ss.str();
+  // Drop trailing zeros of std::to_string.
+  std::string out;
+  for (size_t i = 0; i < s.size(); ++i) out += s[i];
+  return out;
+}
+
+json describe_json(const StageInfo& info, const std::string& source) {
+  json opts = json::array();
+  for (const OptionSpec& o : info.options) {
+    json j = {{"key", o.key}, {"type", to_string(o.type)}, {"default", o.default_value}, {"help", o.help}};
+    if (o.min) j["min"] = *o.min;
+    if (o.max) j["max"] = *o.max;
+    if (!o.choices.empty()) j["choices"] = o.choices;
+    if (!o.unit.empty()) j["unit"] = o.unit;
+    opts.push_back(j);
+  }
+  return {{"name", info.name}, {"description", info.description}, {"doc", info.doc}, {"source", source}, {"options", opts}};
+}
+
+void print_describe(const StageInfo& info, const std::string& source) {
+  std::cout << info.name << ": " << info.description << "\n";
+  std::cout << "  doc: " << info.doc << "\n  module: " << source << "\n";
+  if (info.options.empty()) {
+    std::cout << "  (no options)\n";
+    return;
+  }
+  std::cout << "  options:\n";
+  for (const OptionSpec& o : info.options) {
+    std::cout << "    " << o.key << " (" << to_string(o.type);
+    const std::string r = option_range(o);
+    if (!r.empty()) std::cout << " " << r;
+    if (!o.unit.empty()) std::cout << ", " << o.unit;
+    std::cout << ", default " << o.default_value.dump() << ")\n      " << o.help << "\n";
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"texdefrag: texture defragmentation of photogrammetric building models"};
+  app.require_subcommand(1);
+  int exit_code = 0;
+
+  // run
+  std::string config_path, input, output_dir;
+  std::vector<std::string> sets;
+  bool quiet = false, no_write = false, print_report = false;
+  auto* run = app.add_subcommand("run", "Run a pipeline configuration on one model");
+  run->add_option("--config,-c", config_path, "Pipeline configuration (JSON)")->required();
+  run->add_option("input", input, "Input OBJ")->required();
+  run->add_option("-o,--output", output_dir, "Output folder (created; must not be the input's folder)");
+  run->add_option("--set", sets, "Override an option: SECTION.OPTION=VALUE or STAGE.OPTION=VALUE (repeatable)");
+  run->add_flag("--quiet,-q", quiet, "No progress bar and no summary line");
+  run->add_flag("--no-write", no_write, "Run the stages and report, write nothing");
+  run->add_flag("--report", print_report, "Print the run report JSON on standard output");
+  run->callback([&] {
+    try {
+      const PipelineConfig cfg = load_config(config_path, sets);
+      if (output_dir.empty() && !no_write) {
+        std::cerr << "texdefrag run: -o OUTDIR is required (or --no-write)\n";
+        exit_code = 2;
+        return;
+      }
+      RunOptions ro;
+      ro.input = input;
+      ro.output_dir = output_dir;
+      ro.write_output = !no_write;
+      ro.progress = make_progress(quiet);
+      const json report = run_pipeline(cfg, ro);
+      if (print_report) std::cout << report.dump(2) << "\n";
+      if (!quiet) {
+        const auto& in = report["input_stats"];
+        const auto& out = report["output_stats"];
+        const double cin = in["charts"]["charts"].get<double>(), cout_ = out["charts"].get<double>();
+        std::fprintf(stderr, "%s: %d faces, %d charts => %d charts (%.1f%%), %.2f MP => %.2f MP, in %.2f s\n",
+                     input.c_str(), in["faces"].get<int>(), static_cast<int>(cin), static_cast<int>(cout_),
+                     cin > 0 ? 100.0 * (cout_ - cin) / cin : 0.0, in["megapixels"].get<double>(),
+                     out["megapixels"].get<double>(), report["total_time_s"].get<double>());
+      }
+      exit_code = 0;
+    } catch (const ConfigError& e) {
+      std::cerr << "configuration error:\n" << e.what() << "\n";
+      exit_code = 2;
+    } catch (const RegistryError& e) {
+      std::cerr << "plugin error: " << e.what() << "\n";
+      exit_code = 2;
+    } catch (const Cancelled&) {
+      std::cerr << "cancelled\n";
+      exit_code = 1;
+    } catch (const std::exception& e) {
+      std::cerr << "error: " << e.what() << "\n";
+      exit_code = 1;
+    }
+  });
+
+  // validate
+  auto* validate = app.add_subcommand("validate", "Validate a pipeline configuration without reading any mesh");
+  validate->add_option("--config,-c", config_path, "Pipeline configuration (JSON)")->required();
+  validate->add_option("--set", sets, "Override an option (as in run)");
+  validate->callback([&] {
+    try {
+      load_config(config_path, sets);
+      std::cout << config_path << ": ok\n";
+      exit_code = 0;
+    } catch (const ConfigError& e) {
+      std::cerr << "configuration error:\n" << e.what() << "\n";
+      exit_code = 2;
+    } catch (const RegistryError& e) {
+      std::cerr << "plugin error: " << e.what() << "\n";
+      exit_code = 2;
+    }
+  });
+
+  // plugins
+  std::string describe;
+  bool as_json = false;
+  auto* plugins = app.add_subcommand("plugins", "List stages, or describe one's options");
+  plugins->add_option("--describe", describe, "Stage to describe (e.g. packers.shelf)");
+  plugins->add_flag("--json", as_json, "JSON output");
+  plugins->callback([&] {
+    try {
+      Registry& reg = Registry::instance();
+      reg.load_plugins();
+      std::vector<std::pair<const StageInfo*, std::string>> all;
+      for (const StageInfo* i : reg.list()) all.emplace_back(i, reg.source_of(i->name));
+      all.emplace_back(&texture_stage_info(), "framework");
+      all.emplace_back(&writer_stage_info(), "framework");
+      if (!describe.empty()) {
+        for (const auto& [info, src] : all)
+          if (info->name == describe) {
+            if (as_json) std::cout << describe_json(*info, src).dump(2) << "\n";
+            else print_describe(*info, src);
+            exit_code = 0;
+            return;
+          }
+        std::vector<std::string> names;
+        for (const auto& p : all) names.push_back(p.first->name);
+        std::cerr << "unknown stage '" << describe << "'";
+        const std::string near = nearest(describe, names);
+        if (!near.empty()) std::cerr << " (did you mean '" << near << "'?)";
+        std::cerr << "\n";
+        exit_code = 2;
+        return;
+      }
+      if (as_json) {
+        json arr = json::array();
+        for (const auto& [info, src] : all) arr.push_back(describe_json(*info, src));
+        std::cout << arr.dump(2) << "\n";
+      } else {
+        for (const auto& [info, src] : all) std::printf("%-28s %s\n", info->name.c_str(), info->description.c_str());
+      }
+      exit_code = 0;
+    } catch (const RegistryError& e) {
+      std::cerr << "plugin error: " << e.what() << "\n";
+      exit_code = 2;
+    }
+  });
+
+#ifdef TEXDEFRAG_HAVE_EVAL
+  cli::add_eval_command(app, exit_code);
+#endif
+#ifdef TEXDEFRAG_HAVE_BENCH
+  cli::add_bench_command(app, exit_code);
+#endif
+#ifdef TEXDEFRAG_HAVE_SYNTH
+  cli::add_synth_command(app, exit_code);
+#endif
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+  return exit_code;
+}

@@ -1,0 +1,209 @@
+#include "texdefrag/pipeline/pipeline.h"
+
+#include <fstream>
+#include <sstream>
+
+namespace texdefrag {
+namespace {
+
+std::string join_lines(const std::vector<std::string>& v) {
+  std::string s;
+  for (size_t i = 0; i < v.size(); ++i) s += (i ? "\n" : "") + v[i];
+  return s;
+}
+
+StageInfo framework_info(std::string name, std::string description, std::string doc, std::vector<OptionSpec> options) {
+  StageInfo i;
+  i.name = std::move(name);
+  i.description = std::move(description);
+  i.doc = std::move(doc);
+  i.options = std::move(options);
+  return i;
+}
+
+struct Section {
+  const char* key;
+  StageKind kind;
+  const char* default_type;
+};
+const Section kSections[] = {
+    {"detector", StageKind::Detector, "detectors.none"},
+    {"merger", StageKind::Merger, "mergers.none"},
+    {"packer", StageKind::Packer, "packers.shelf"},
+};
+
+/// Parses VALUE of an override: JSON when it parses, else a bare string.
+json parse_value(const std::string& v) {
+  try {
+    return json::parse(v);
+  } catch (const json::parse_error&) {
+    return json(v);
+  }
+}
+
+}  // namespace
+
+ConfigError::ConfigError(std::vector<std::string> errs)
+    : std::runtime_error(join_lines(errs)), errors(std::move(errs)) {}
+
+const StageInfo& texture_stage_info() {
+  static const StageInfo info = framework_info(
+      "texture.resample", "Renders the output atlas pages from the input pages", "docs/texture.md",
+      {opt_enum("filter", "bilinear", {"nearest", "bilinear", "bicubic"}, "Sampling filter of the input pages"),
+       opt_enum("fill", "pull_push", {"none", "dilate", "pull_push"}, "How texels around charts are filled for MIP-mapping"),
+       opt_int("dilate_width", 8, "Width of the dilation when fill is 'dilate'").range(0, 256).unit("texels")});
+  return info;
+}
+
+const StageInfo& writer_stage_info() {
+  static const StageInfo info = framework_info(
+      "writers.obj", "Writes the output OBJ, MTL and atlas pages", "docs/io.md",
+      {opt_enum("image_format", "png", {"png", "jpeg"}, "Format of the output pages"),
+       opt_int("jpeg_quality", 95, "JPEG quality when image_format is 'jpeg'").range(1, 100),
+       opt_string("name", "", "Output file stem; empty keeps the input's stem"),
+       opt_bool("write_report", true, "Write <stem>.report.json beside the output")});
+  return info;
+}
+
+PipelineConfig parse_config(const json& config, const std::string& origin, const std::vector<std::string>& overrides) {
+  std::vector<std::string> errors;
+  if (!config.is_object()) throw ConfigError({origin + ": the configuration must be a JSON object"});
+  json cfg = config;
+
+  Registry& reg = Registry::instance();
+  reg.load_plugins();
+
+  // Overrides: "section.option=value" or "kind.stage.option=value" (stage must be the section's type).
+  for (const std::string& o : overrides) {
+    const size_t eq = o.find('=');
+    const size_t dot = o.rfind('.', eq);
+    if (eq == std::string::npos || dot == std::string::npos || dot == 0 || dot + 1 >= eq) {
+      errors.push_back("--set " + o + ": expected STAGE.OPTION=VALUE (e.g. packer.gutter=4)");
+      continue;
+    }
+    std::string target = o.substr(0, dot);
+    const std::string key = o.substr(dot + 1, eq - dot - 1);
+    const json value = parse_value(o.substr(eq + 1));
+    std::string section;
+    for (const Section& s : kSections)
+      if (target == s.key) section = s.key;
+    if (target == "texture" || target == "output") section = target;
+    if (section.empty()) {
+      for (const Section& s : kSections) {
+        const std::string type = cfg.contains(s.key) && cfg[s.key].is_object() && cfg[s.key].contains("type") &&
+                                         cfg[s.key]["type"].is_string()
+                                     ? cfg[s.key]["type"].get<std::string>()
+                                     : s.default_type;
+        if (type == target) section = s.key;
+      }
+      if (target == texture_stage_info().name) section = "texture";
+      if (target == writer_stage_info().name) section = "output";
+    }
+    if (section.empty()) {
+      errors.push_back("--set " + o + ": '" + target + "' is neither a section (detector, merger, packer, texture, output) "
+                       "nor the type of one in " + origin);
+      continue;
+    }
+    if (!cfg.contains(section)) cfg[section] = json::object();
+    if (!cfg[section].is_object()) {
+      errors.push_back("--set " + o + ": section '" + section + "' of " + origin + " is not an object");
+      continue;
+    }
+    cfg[section][key] = value;
+  }
+
+  std::vector<std::string> known = {"description", "texture", "output"};
+  for (const Section& s : kSections) known.push_back(s.key);
+  for (auto it = cfg.begin(); it != cfg.end(); ++it) {
+    if (std::find(known.begin(), known.end(), it.key()) != known.end()) continue;
+    std::string msg = origin + ": unknown key '" + it.key() + "'";
+    const std::string near = nearest(it.key(), known);
+    if (!near.empty()) msg += " (did you mean '" + near + "'?)";
+    errors.push_back(msg);
+  }
+  if (cfg.contains("description") && !cfg["description"].is_string())
+    errors.push_back(origin + ": 'description' must be a string");
+
+  PipelineConfig pc;
+  pc.origin = origin;
+  StageConfig* targets[] = {&pc.detector, &pc.merger, &pc.packer};
+  for (size_t i = 0; i < 3; ++i) {
+    const Section& s = kSections[i];
+    StageConfig& sc = *targets[i];
+    sc.section = s.key;
+    json node = cfg.contains(s.key) ? cfg[s.key] : json::object();
+    if (!node.is_object()) {
+      errors.push_back(origin + ": '" + s.key + "' must be an object like {\"type\": \"" + s.default_type + "\"}");
+      continue;
+    }
+    if (node.contains("type") && !node["type"].is_string()) {
+      errors.push_back(std::string(s.key) + ".type: must be a string naming a stage");
+      continue;
+    }
+    sc.type = node.value("type", std::string(s.default_type));
+    const StageInfo* info = reg.find(sc.type);
+    if (!info) {
+      std::vector<std::string> same_kind;
+      for (const StageInfo* si : reg.list())
+        if (si->kind == s.kind) same_kind.push_back(si->name);
+      std::string msg = std::string(s.key) + ".type: unknown stage '" + sc.type + "'";
+      const std::string near = nearest(sc.type, same_kind);
+      if (!near.empty()) msg += " (did you mean '" + near + "'?)";
+      errors.push_back(msg);
+      continue;
+    }
+    if (info->kind != s.kind) {
+      errors.push_back(std::string(s.key) + ".type: '" + sc.type + "' is a " + to_string(info->kind) +
+                       " stage, not one of " + to_string(s.kind));
+      continue;
+    }
+    sc.options = make_options(*info, node, std::string(s.key) + " (" + sc.type + ")", errors);
+    json eff = sc.options.values();
+    eff["type"] = sc.type;
+    pc.effective[s.key] = eff;
+  }
+  pc.texture = make_options(texture_stage_info(), cfg.value("texture", json::object()), "texture", errors);
+  pc.output = make_options(writer_stage_info(), cfg.value("output", json::object()), "output", errors);
+  pc.effective["texture"] = pc.texture.values();
+  pc.effective["output"] = pc.output.values();
+  if (cfg.contains("description")) pc.effective["description"] = cfg["description"];
+
+  // Let stages check cross-option constraints now, before any mesh is read.
+  if (errors.empty()) {
+    for (StageConfig* sc : targets) {
+      try {
+        auto st = reg.create(sc->type);
+        st->set_options(sc->options);
+      } catch (const std::exception& e) {
+        errors.push_back(sc->section + " (" + sc->type + "): " + e.what());
+      }
+    }
+  }
+  if (!errors.empty()) throw ConfigError(errors);
+  return pc;
+}
+
+PipelineConfig load_config(const std::string& path, const std::vector<std::string>& overrides) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ConfigError({path + ": cannot open configuration file"});
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::parse_error& e) {
+    // Convert the byte offset to line and column.
+    size_t line = 1, col = 1;
+    for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
+      if (text[i] == '\n') { ++line; col = 1; } else { ++col; }
+    }
+    std::string what = e.what();
+    const size_t p = what.find("parse error");
+    throw ConfigError({path + ":" + std::to_string(line) + ":" + std::to_string(col) + ": invalid JSON: " +
+                       (p == std::string::npos ? what : what.substr(p))});
+  }
+  return parse_config(j, path, overrides);
+}
+
+}  // namespace texdefrag

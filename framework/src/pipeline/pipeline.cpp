@@ -1,0 +1,354 @@
+#include "texdefrag/pipeline/pipeline.h"
+
+#include "texdefrag/core/distortion.h"
+#include "texdefrag/io/image.h"
+#include "texdefrag/io/obj.h"
+#include "texdefrag/texture/resample.h"
+#include "texdefrag/util/memory.h"
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <set>
+
+namespace fs = std::filesystem;
+
+namespace texdefrag {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// Times a step and records its figures under report["stages"][name].
+template <class F>
+void timed(json& report, const std::string& name, F&& fn) {
+  reset_peak_rss();
+  json& node = report["stages"][name];
+  if (node.is_null()) node = json::object();
+  const auto t0 = Clock::now();
+  fn(node);
+  node["time_s"] = seconds_since(t0);
+  node["peak_rss_bytes"] = peak_rss_bytes();
+}
+
+json chart_summary(const ChartSet& cs) {
+  return {{"charts", cs.atlas.num_charts},
+          {"zero_area_charts", cs.zero_area_charts},
+          {"seam_edges", cs.seam_edges},
+          {"seam_length_3d", cs.seam_length_3d},
+          {"uv_border_length_texels", cs.uv_border_length},
+          {"wedges", cs.atlas.wedge_uv.size()}};
+}
+
+json topology_summary(const TopologyReport& t) {
+  return {{"welded_vertices", t.welded_vertices},       {"edges", t.edges},
+          {"boundary_edges", t.boundary_edges},         {"non_manifold_edges", t.non_manifold_edges},
+          {"non_manifold_vertices", t.non_manifold_vertices}, {"degenerate_faces", t.degenerate_faces},
+          {"zero_area_faces", t.zero_area_faces},       {"duplicate_faces", t.duplicate_faces}};
+}
+
+/// A progress function that forwards only changes of at least 1% (and every stage start/end).
+ProgressFn rate_limited(const ProgressFn& user) {
+  if (!user) return [](const std::string&, double) { return true; };
+  auto last_stage = std::make_shared<std::string>();
+  auto last = std::make_shared<double>(-1.0);
+  return [user, last_stage, last](const std::string& stage, double f) {
+    if (stage != *last_stage || f >= 1.0 || f <= 0.0 || f - *last >= 0.01) {
+      *last_stage = stage;
+      *last = f;
+      return user(stage, f);
+    }
+    return true;
+  };
+}
+
+void check_regions(const StageContext& ctx, const std::string& stage) {
+  const Regions& r = ctx.regions;
+  if (r.face_region.size() != ctx.mesh->faces.size())
+    throw StageError(stage + ": produced " + std::to_string(r.face_region.size()) + " face regions for " +
+                     std::to_string(ctx.mesh->faces.size()) + " faces");
+  for (size_t f = 0; f < r.face_region.size(); ++f) {
+    const bool textured = ctx.mesh->faces[f].page != kNoPage;
+    if (textured && (r.face_region[f] < 0 || r.face_region[f] >= r.num_regions))
+      throw StageError(stage + ": face " + std::to_string(f) + " has region " + std::to_string(r.face_region[f]) +
+                       " outside [0, " + std::to_string(r.num_regions) + ")");
+  }
+}
+
+void check_atlas(const StageContext& ctx, const std::string& stage) {
+  const Atlas& a = ctx.atlas;
+  const size_t nf = ctx.mesh->faces.size();
+  if (a.face_chart.size() != nf || a.face_wedge.size() != nf)
+    throw StageError(stage + ": the atlas no longer has one entry per face");
+  for (size_t f = 0; f < nf; ++f) {
+    const bool textured = ctx.mesh->faces[f].page != kNoPage;
+    if (!textured) continue;
+    if (a.face_chart[f] < 0 || a.face_chart[f] >= a.num_charts)
+      throw StageError(stage + ": face " + std::to_string(f) + " lost its chart");
+    for (int w : a.face_wedge[f])
+      if (w < 0 || static_cast<size_t>(w) >= a.wedge_uv.size() || !std::isfinite(a.wedge_uv[static_cast<size_t>(w)].x()) ||
+          !std::isfinite(a.wedge_uv[static_cast<size_t>(w)].y()))
+        throw StageError(stage + ": face " + std::to_string(f) + " has an invalid or non-finite UV");
+  }
+}
+
+void check_layout(const StageContext& ctx, const std::string& stage) {
+  const Layout& l = ctx.layout;
+  const Atlas& a = ctx.atlas;
+  if (l.chart_page.size() != static_cast<size_t>(a.num_charts) || l.wedge_uv.size() != a.wedge_uv.size())
+    throw StageError(stage + ": layout does not place every chart and wedge");
+  for (const auto& p : l.pages)
+    if (p.width <= 0 || p.height <= 0) throw StageError(stage + ": produced an empty page");
+  for (size_t f = 0; f < a.face_chart.size(); ++f) {
+    const int c = a.face_chart[f];
+    if (c < 0) continue;
+    const int page = l.chart_page[static_cast<size_t>(c)];
+    if (page < 0 || static_cast<size_t>(page) >= l.pages.size())
+      throw StageError(stage + ": chart " + std::to_string(c) + " placed on page " + std::to_string(page) + " of " +
+                       std::to_string(l.pages.size()));
+    for (int w : a.face_wedge[f]) {
+      const Vec2& p = l.wedge_uv[static_cast<size_t>(w)];
+      const auto& ps = l.pages[static_cast<size_t>(page)];
+      if (!(p.x() >= 0 && p.y() >= 0 && p.x() <= ps.width && p.y() <= ps.height))
+        throw StageError(stage + ": chart " + std::to_string(c) + " placed outside its page");
+    }
+  }
+}
+
+std::string canonical_or_absolute(const std::string& p) {
+  std::error_code ec;
+  fs::path c = fs::weakly_canonical(p, ec);
+  return ec ? fs::absolute(p).string() : c.string();
+}
+
+}  // namespace
+
+TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, const Layout& layout,
+                              const std::string& stem, const std::string& image_ext,
+                              const std::string& output_dir) {
+  TexturedMesh out;
+  out.positions = input.positions;
+  out.normals = input.normals;
+  out.groups = input.groups;
+  out.materials = input.materials;  // untextured faces keep theirs
+  out.faces = input.faces;
+  const int first_page_material = static_cast<int>(out.materials.size());
+  Material base;
+  for (const Face& f : input.faces)
+    if (f.page != kNoPage && f.material >= 0) {
+      base = input.materials[static_cast<size_t>(f.material)];
+      break;
+    }
+  for (size_t p = 0; p < layout.pages.size(); ++p) {
+    Material m;
+    m.name = "page_" + std::to_string(p);
+    m.extra_lines = base.extra_lines;
+    const std::string file = stem + "_page" + std::to_string(p) + "." + image_ext;
+    m.map_kd = file;
+    out.materials.push_back(m);
+    Page pg;
+    pg.material = m.name;
+    pg.image_path = (fs::path(output_dir) / file).string();
+    pg.width = layout.pages[p].width;
+    pg.height = layout.pages[p].height;
+    out.pages.push_back(pg);
+  }
+  // Drop input materials no face uses any more (the textured ones), keeping indices consistent.
+  std::vector<int> used(out.materials.size(), 0);
+  for (size_t f = 0; f < out.faces.size(); ++f)
+    if (input.faces[f].page == kNoPage && input.faces[f].material >= 0) used[static_cast<size_t>(input.faces[f].material)] = 1;
+  for (size_t m = static_cast<size_t>(first_page_material); m < used.size(); ++m) used[m] = 1;
+  std::vector<int> remap(out.materials.size(), -1);
+  std::vector<Material> kept;
+  for (size_t m = 0; m < out.materials.size(); ++m)
+    if (used[m]) {
+      remap[m] = static_cast<int>(kept.size());
+      kept.push_back(out.materials[m]);
+    }
+  out.materials.swap(kept);
+
+  out.texcoords.resize(atlas.wedge_uv.size());
+  std::vector<uint8_t> set(atlas.wedge_uv.size(), 0);
+  for (size_t f = 0; f < out.faces.size(); ++f) {
+    Face& F = out.faces[f];
+    if (input.faces[f].page == kNoPage) {
+      if (F.material >= 0) F.material = remap[static_cast<size_t>(F.material)];
+      continue;
+    }
+    const int c = atlas.face_chart[f];
+    const int page = layout.chart_page[static_cast<size_t>(c)];
+    F.page = page;
+    F.material = remap[static_cast<size_t>(first_page_material + page)];
+    const auto& ps = layout.pages[static_cast<size_t>(page)];
+    for (int k = 0; k < 3; ++k) {
+      const int w = atlas.face_wedge[f][static_cast<size_t>(k)];
+      F.vt[static_cast<size_t>(k)] = w;
+      if (!set[static_cast<size_t>(w)]) {
+        const Vec2& t = layout.wedge_uv[static_cast<size_t>(w)];
+        out.texcoords[static_cast<size_t>(w)] = Vec2(t.x() / ps.width, t.y() / ps.height);
+        set[static_cast<size_t>(w)] = 1;
+      }
+    }
+  }
+  return out;
+}
+
+json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
+  const auto t_start = Clock::now();
+  json report;
+  report["texdefrag_version"] = "0.1.0";
+  report["input"] = options.input;
+  report["config_origin"] = config.origin;
+  report["config"] = config.effective;
+  report["stages"] = json::object();
+  ProgressFn progress = rate_limited(options.progress);
+
+  const std::string out_format = config.output.get_string("image_format");
+  const std::string ext = out_format == "jpeg" ? "jpg" : "png";
+  std::string stem = config.output.get_string("name");
+  if (stem.empty()) stem = fs::path(options.input).stem().string();
+  if (options.write_output) {
+    if (options.output_dir.empty()) throw StageError("no output folder given");
+    const std::string in_dir = canonical_or_absolute(fs::path(options.input).parent_path().empty()
+                                                         ? std::string(".")
+                                                         : fs::path(options.input).parent_path().string());
+    if (canonical_or_absolute(options.output_dir) == in_dir)
+      throw StageError("output folder " + options.output_dir + " is the input's folder; choose another so no input file can be overwritten");
+  }
+
+  TexturedMesh mesh;
+  timed(report, "read", [&](json& node) {
+    progress("read", 0);
+    mesh = read_obj(options.input);
+    node["faces"] = mesh.faces.size();
+    node["positions"] = mesh.positions.size();
+    node["texcoords"] = mesh.texcoords.size();
+    node["pages"] = mesh.pages.size();
+    progress("read", 1);
+  });
+  Topology topo;
+  ChartSet charts;
+  timed(report, "charts", [&](json& node) {
+    topo = build_topology(mesh);
+    charts = build_charts(mesh, topo);
+    node["topology"] = topology_summary(topo.report);
+    node["input"] = chart_summary(charts);
+  });
+  size_t untextured = 0;
+  for (const Face& f : mesh.faces) untextured += f.page == kNoPage;
+  report["input_stats"] = {{"faces", mesh.faces.size()}, {"untextured_faces", untextured},
+                           {"topology", topology_summary(topo.report)}, {"charts", chart_summary(charts)}};
+  {
+    double mp = 0;
+    for (const Page& p : mesh.pages) mp += static_cast<double>(p.width) * p.height / 1e6;
+    report["input_stats"]["megapixels"] = mp;
+  }
+
+  StageContext ctx;
+  ctx.mesh = &mesh;
+  ctx.topology = &topo;
+  ctx.input_charts = &charts;
+  ctx.atlas = charts.atlas;
+  ctx.progress = progress;
+  ctx.input_path = options.input;
+  ctx.output_dir = options.output_dir;
+  Registry& reg = Registry::instance();
+  const StageConfig* stages[] = {&config.detector, &config.merger, &config.packer};
+  for (const StageConfig* sc : stages) {
+    auto stage = reg.create(sc->type);
+    stage->set_options(sc->options);
+    timed(report, sc->type, [&](json& node) {
+      node["section"] = sc->section;
+      ctx.report = &node;
+      ctx.step(sc->type, 0);
+      if (auto* d = dynamic_cast<Detector*>(stage.get())) {
+        d->detect(ctx);
+        check_regions(ctx, sc->type);
+        node["regions"] = ctx.regions.num_regions;
+      } else if (auto* m = dynamic_cast<Merger*>(stage.get())) {
+        node["charts_in"] = ctx.atlas.num_charts;
+        m->merge(ctx);
+        check_atlas(ctx, sc->type);
+        node["charts_out"] = ctx.atlas.num_charts;
+        const DistortionSummary d = atlas_distortion(mesh, ctx.atlas);
+        node["distortion_arap"] = d.arap;
+        node["flipped_faces"] = d.flipped;
+      } else if (auto* p = dynamic_cast<Packer*>(stage.get())) {
+        p->pack(ctx);
+        check_layout(ctx, sc->type);
+        node["pages_out"] = ctx.layout.pages.size();
+      }
+      ctx.step(sc->type, 1);
+      ctx.report = nullptr;
+    });
+  }
+
+  std::vector<Image> out_pages;
+  timed(report, "texture.resample", [&](json& node) {
+    std::vector<Image> in_pages(mesh.pages.size());
+    std::vector<uint8_t> used(mesh.pages.size(), 0);
+    for (const Face& f : mesh.faces)
+      if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
+    for (size_t p = 0; p < mesh.pages.size(); ++p)
+      if (used[p]) in_pages[p] = read_image(mesh.pages[p].image_path);
+    ResampleOptions ro;
+    const std::string filter = config.texture.get_string("filter");
+    ro.filter = filter == "nearest" ? Filter::Nearest : filter == "bicubic" ? Filter::Bicubic : Filter::Bilinear;
+    const std::string fill = config.texture.get_string("fill");
+    ro.fill = fill == "none" ? GutterFill::None : fill == "dilate" ? GutterFill::Dilate : GutterFill::PullPush;
+    ro.dilate_width = static_cast<int>(config.texture.get_int("dilate_width"));
+    ResampleStats rs;
+    out_pages = resample_atlas(mesh, in_pages, ctx.atlas, ctx.layout, ro, &rs, progress);
+    node["texels_written"] = rs.texels_written;
+    node["texels_copied"] = rs.texels_copied;
+    node["faces_copied"] = rs.faces_copied;
+    node["faces_resampled"] = rs.faces_resampled;
+  });
+
+  double mp_out = 0;
+  for (const auto& p : ctx.layout.pages) mp_out += static_cast<double>(p.width) * p.height / 1e6;
+  report["output_stats"] = {{"faces", mesh.faces.size()},
+                            {"charts", ctx.atlas.num_charts},
+                            {"pages", ctx.layout.pages.size()},
+                            {"megapixels", mp_out}};
+
+  if (options.write_output) {
+    timed(report, "write", [&](json& node) {
+      fs::create_directories(options.output_dir);
+      TexturedMesh out = make_output_mesh(mesh, ctx.atlas, ctx.layout, stem, ext, options.output_dir);
+      std::vector<std::string> protect = {options.input};
+      for (const Page& p : mesh.pages) protect.push_back(p.image_path);
+      const std::set<std::string> protected_set = [&] {
+        std::set<std::string> s;
+        for (const auto& p : protect) s.insert(canonical_or_absolute(p));
+        return s;
+      }();
+      size_t bytes = 0;
+      for (size_t p = 0; p < out_pages.size(); ++p) {
+        const std::string path = out.pages[p].image_path;
+        if (protected_set.count(canonical_or_absolute(path)))
+          throw StageError("refusing to overwrite input file " + path);
+        write_image(path, out_pages[p], out_format == "jpeg" ? ImageFormat::Jpeg : ImageFormat::Png,
+                    static_cast<int>(config.output.get_int("jpeg_quality")));
+        bytes += fs::file_size(path);
+      }
+      ObjWriteOptions wo;
+      wo.protected_paths = protect;
+      const std::string obj_path = (fs::path(options.output_dir) / (stem + ".obj")).string();
+      write_obj(out, obj_path, wo);
+      node["obj"] = obj_path;
+      node["page_bytes"] = bytes;
+      report["output"] = obj_path;
+    });
+  }
+  report["total_time_s"] = seconds_since(t_start);
+  report["peak_rss_bytes"] = peak_rss_bytes();
+  if (options.write_output && config.output.get_bool("write_report"))
+    write_file_atomic((fs::path(options.output_dir) / (stem + ".report.json")).string(), report.dump(2) + "\n");
+  return report;
+}
+
+}  // namespace texdefrag

@@ -1,0 +1,140 @@
+// packers.shelf: the simplest baseline packer. Charts keep their orientation and the input texel
+// density; each is moved by a whole-texel translation (so untouched charts are copied bit-exact),
+// sorted by height and laid left to right on shelves; a new page starts when a page is full.
+#include "texdefrag/stage/registry.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace texdefrag {
+namespace {
+
+int round_up(int v, int multiple, bool pow2) {
+  if (pow2) {
+    int p = 1;
+    while (p < v) p *= 2;
+    return p;
+  }
+  return (v + multiple - 1) / multiple * multiple;
+}
+
+class ShelfPacker final : public Packer {
+ public:
+  static StageInfo info() {
+    StageInfo i;
+    i.name = "packers.shelf";
+    i.kind = StageKind::Packer;
+    i.description = "Shelf packing of chart bounding boxes at the input texel density, whole-texel moves";
+    i.doc = "plugins/packers/shelf/README.md";
+    i.options = {
+        opt_int("gutter", 4, "Empty texels between charts and around the page border").range(0, 64).unit("texels"),
+        opt_int("max_page_size", 8192, "Largest page width and height; more pages are made when charts do not fit")
+            .range(64, 32768).unit("texels"),
+        opt_int("page_multiple", 32, "Page sides are rounded up to a multiple of this").range(1, 4096).unit("texels"),
+        opt_bool("power_of_two", false, "Round page sides up to a power of two instead of page_multiple"),
+    };
+    i.create = [] { return std::make_unique<ShelfPacker>(); };
+    return i;
+  }
+
+  void pack(StageContext& ctx) override {
+    const Atlas& a = ctx.atlas;
+    const int gutter = static_cast<int>(options().get_int("gutter"));
+    const int max_size = static_cast<int>(options().get_int("max_page_size"));
+    const int multiple = static_cast<int>(options().get_int("page_multiple"));
+    const bool pow2 = options().get_bool("power_of_two");
+    const size_t nc = static_cast<size_t>(a.num_charts);
+
+    // Whole-texel bounding boxes.
+    std::vector<Eigen::Vector2i> lo(nc, Eigen::Vector2i::Constant(INT32_MAX)), hi(nc, Eigen::Vector2i::Constant(INT32_MIN));
+    std::vector<double> area(nc, 0.0);
+    for (size_t f = 0; f < a.face_chart.size(); ++f) {
+      const int c = a.face_chart[f];
+      if (c < 0) continue;
+      area[static_cast<size_t>(c)] += std::abs(atlas_face_area(a, static_cast<int>(f)));
+      for (int w : a.face_wedge[f]) {
+        const Vec2& p = a.wedge_uv[static_cast<size_t>(w)];
+        lo[static_cast<size_t>(c)] = lo[static_cast<size_t>(c)].cwiseMin(Eigen::Vector2i(static_cast<int>(std::floor(p.x())), static_cast<int>(std::floor(p.y()))));
+        hi[static_cast<size_t>(c)] = hi[static_cast<size_t>(c)].cwiseMax(Eigen::Vector2i(static_cast<int>(std::ceil(p.x())), static_cast<int>(std::ceil(p.y()))));
+      }
+    }
+    std::vector<int> order(nc);
+    std::iota(order.begin(), order.end(), 0);
+    double box_area = 0;
+    int widest = 0;
+    for (size_t c = 0; c < nc; ++c) {
+      const Eigen::Vector2i s = hi[c] - lo[c];
+      if (s.x() + 2 * gutter > max_size || s.y() + 2 * gutter > max_size)
+        throw StageError("packers.shelf: chart " + std::to_string(c) + " is " + std::to_string(s.x()) + "x" +
+                         std::to_string(s.y()) + " texels; with a gutter of " + std::to_string(gutter) +
+                         " it does not fit in max_page_size " + std::to_string(max_size));
+      box_area += static_cast<double>(s.x() + gutter) * (s.y() + gutter);
+      widest = std::max(widest, s.x() + 2 * gutter);
+    }
+    std::sort(order.begin(), order.end(), [&](int x, int y) {
+      const int hx = hi[static_cast<size_t>(x)].y() - lo[static_cast<size_t>(x)].y();
+      const int hy = hi[static_cast<size_t>(y)].y() - lo[static_cast<size_t>(y)].y();
+      return hx != hy ? hx > hy : x < y;
+    });
+    const int width = std::min(max_size, std::max(widest, static_cast<int>(std::ceil(std::sqrt(box_area)))));
+
+    Layout& L = ctx.layout;
+    L = Layout();
+    L.chart_page.assign(nc, -1);
+    std::vector<Eigen::Vector2i> shift(nc, Eigen::Vector2i::Zero());
+    std::vector<Eigen::Vector2i> used;  // per page: used extent
+    int page = -1, x = 0, y = 0, shelf_h = 0;
+    auto new_page = [&] {
+      ++page;
+      used.emplace_back(0, 0);
+      x = gutter;
+      y = gutter;
+      shelf_h = 0;
+    };
+    if (nc) new_page();
+    for (int c : order) {
+      const Eigen::Vector2i s = hi[static_cast<size_t>(c)] - lo[static_cast<size_t>(c)];
+      if (x + s.x() + gutter > width) {  // next shelf
+        x = gutter;
+        y += shelf_h + gutter;
+        shelf_h = 0;
+      }
+      if (y + s.y() + gutter > max_size) new_page();
+      L.chart_page[static_cast<size_t>(c)] = page;
+      shift[static_cast<size_t>(c)] = Eigen::Vector2i(x, y) - lo[static_cast<size_t>(c)];
+      used[static_cast<size_t>(page)] = used[static_cast<size_t>(page)].cwiseMax(Eigen::Vector2i(x + s.x() + gutter, y + s.y() + gutter));
+      x += s.x() + gutter;
+      shelf_h = std::max(shelf_h, s.y());
+    }
+    for (const auto& u : used)
+      L.pages.push_back({std::min(max_size, round_up(u.x(), multiple, pow2)), std::min(max_size, round_up(u.y(), multiple, pow2))});
+    L.wedge_uv = a.wedge_uv;
+    std::vector<uint8_t> moved(a.wedge_uv.size(), 0);
+    for (size_t f = 0; f < a.face_chart.size(); ++f) {
+      const int c = a.face_chart[f];
+      if (c < 0) continue;
+      for (int w : a.face_wedge[f])
+        if (!moved[static_cast<size_t>(w)]) {
+          moved[static_cast<size_t>(w)] = 1;
+          L.wedge_uv[static_cast<size_t>(w)] += shift[static_cast<size_t>(c)].cast<double>();
+        }
+    }
+    double page_area = 0, chart_area = std::accumulate(area.begin(), area.end(), 0.0);
+    json sizes = json::array();
+    for (const auto& p : L.pages) {
+      page_area += static_cast<double>(p.width) * p.height;
+      sizes.push_back({p.width, p.height});
+    }
+    json& r = *ctx.report;
+    r["pages"] = L.pages.size();
+    r["page_sizes"] = sizes;
+    r["packing_efficiency"] = page_area > 0 ? chart_area / page_area : 0.0;
+    r["charts"] = nc;
+  }
+};
+
+}  // namespace
+}  // namespace texdefrag
+
+TEXDEFRAG_PLUGIN(texdefrag::ShelfPacker)
