@@ -37,13 +37,12 @@ std::string option_range(const OptionSpec& o) {
     return s;
   }
   if (!o.min && !o.max) return "";
-  std::ostringstream ss;
-  ss << "[" << (o.min ? std::to_string(*o.min) : "-inf") << ", " << (o.max ? std::to_string(*o.max) : "inf") << "]";
-  std::string s = ss.str();
-  // Drop trailing zeros of std::to_string.
-  std::string out;
-  for (size_t i = 0; i < s.size(); ++i) out += s[i];
-  return out;
+  auto num = [](double d) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", d);
+    return std::string(buf);
+  };
+  return "[" + (o.min ? num(*o.min) : std::string("-inf")) + ", " + (o.max ? num(*o.max) : std::string("inf")) + "]";
 }
 
 json describe_json(const StageInfo& info, const std::string& source) {

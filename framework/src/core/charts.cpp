@@ -50,7 +50,7 @@ bool uv_continuous(const TexturedMesh& mesh, const Topology& topo, int f, int k,
   const Face& G = mesh.faces[static_cast<size_t>(g)];
   if (F.page == kNoPage || G.page == kNoPage || F.page != G.page) return false;
   if (topo.face_degenerate[static_cast<size_t>(f)] || topo.face_degenerate[static_cast<size_t>(g)]) return false;
-  int gk, gk1;
+  int gk = 0, gk1 = 0;
   if (!matching_corners(topo, f, k, g, l, gk, gk1)) return false;
   return same_tex(mesh, f, k, g, gk) && same_tex(mesh, f, (k + 1) % 3, g, gk1);
 }
@@ -204,7 +204,7 @@ ChartSet build_charts(const TexturedMesh& mesh, const Topology& topo) {
         const EdgeIncidence& y = topo.edge_faces[static_cast<size_t>(e.first_incidence + j)];
         if (!uv_continuous(mesh, topo, x.face, x.local, y.face, y.local)) continue;
         faces.unite(x.face, y.face);
-        int gk, gk1;
+        int gk = 0, gk1 = 0;
         matching_corners(topo, x.face, x.local, y.face, y.local, gk, gk1);
         corners.unite(x.face * 3 + x.local, y.face * 3 + gk);
         corners.unite(x.face * 3 + (x.local + 1) % 3, y.face * 3 + gk1);
