@@ -1,0 +1,15 @@
+#!/usr/bin/env bash
+# Installs dependencies, builds texdefrag, runs the main pipeline on the bundled example and prints
+# its metrics (input vs output).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install-deps.sh
+BUILD=${BUILD_DIR:-build}
+cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=Release -DTEXDEFRAG_BUILD_TESTS=OFF -DTEXDEFRAG_BUILD_BENCHMARKS=OFF >/dev/null
+cmake --build "$BUILD" -j"$(nproc)"
+CONFIG=${CONFIG:-configs/paper.json}
+[ -f "$CONFIG" ] || CONFIG=configs/repack.json
+MODEL=examples/building/building.obj
+OUT=${OUT:-out/demo}
+"$BUILD/bin/texdefrag" run -c "$CONFIG" "$MODEL" -o "$OUT"
+"$BUILD/bin/texdefrag" eval "$MODEL" "$OUT/building.obj"

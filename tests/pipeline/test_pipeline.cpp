@@ -1,0 +1,177 @@
+// The pipeline end to end: every configs/*.json runs, every configs/bad/*.json fails with its
+// expected message, overrides, refusals, and the repack invariants on every real model.
+#include "texdefrag/eval/metrics.h"
+#include "texdefrag/io/obj.h"
+#include "texdefrag/pipeline/pipeline.h"
+#include "texdefrag/testing/fixtures.h"
+#include "texdefrag/util/paths.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+namespace fs = std::filesystem;
+using namespace texdefrag;
+
+namespace {
+
+std::string config_path(const std::string& name) { return (fs::path(source_dir()) / "configs" / name).string(); }
+
+/// A small fragmented model on disk: a 4x3 grid, every triangle its own chart, one 64^2 page.
+std::string small_model(const std::string& dir) {
+  testing::write_test_image(dir + "/page.png", 64, 64);
+  TexturedMesh m = testing::fragmented_grid_mesh(4, 3, 64, dir + "/page.png");
+  write_obj(m, dir + "/small.obj");
+  return dir + "/small.obj";
+}
+
+std::vector<std::string> files_in(const std::string& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().extension() == ".json") out.push_back(e.path().filename().string());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+void expect_same_geometry(const std::string& in_obj, const std::string& out_obj) {
+  const TexturedMesh in = read_obj(in_obj), out = read_obj(out_obj);
+  ASSERT_EQ(in.faces.size(), out.faces.size());
+  for (size_t f = 0; f < in.faces.size(); ++f)
+    for (int k = 0; k < 3; ++k)
+      ASSERT_EQ(in.corner_position(f, k), out.corner_position(f, k)) << "face " << f;  // bit for bit
+}
+
+}  // namespace
+
+TEST(Configs, EveryBadConfigFailsWithItsMessage) {
+  // One expected fragment per file: adding a bad config without an expectation fails this test.
+  const std::map<std::string, std::string> expected = {
+      {"bad_enum.json", "texture: 'filter' = \"bilinar\" is not one of \"nearest\" \"bilinear\" \"bicubic\" (did you mean \"bilinear\"?)"},
+      {"float_for_int.json", "packer (packers.shelf): 'max_page_size' must be an integer, got 1024.5"},
+      {"not_object.json", "the configuration must be a JSON object"},
+      {"out_of_range.json", "packer (packers.shelf): 'gutter' = -1 outside [0, 64]"},
+      {"section_not_object.json", "'detector' must be an object"},
+      {"syntax_error.json", "syntax_error.json:2:38: invalid JSON"},
+      {"type_not_string.json", "detector.type: must be a string naming a stage"},
+      {"unknown_option.json", "unknown option 'gutterr' for packers.shelf (did you mean 'gutter'?)"},
+      {"unknown_section.json", "unknown key 'packers' (did you mean 'packer'?)"},
+      {"unknown_stage.json", "detector.type: unknown stage 'detectors.nonee' (did you mean 'detectors.none'?)"},
+      {"wrong_kind.json", "merger.type: 'packers.shelf' is a packers stage, not one of mergers"},
+      {"wrong_type.json", "packer (packers.shelf): 'gutter' must be an integer, got string"},
+  };
+  const auto files = files_in(config_path("bad"));
+  ASSERT_FALSE(files.empty());
+  for (const std::string& f : files) {
+    SCOPED_TRACE(f);
+    auto it = expected.find(f);
+    ASSERT_NE(it, expected.end()) << "configs/bad/" << f << " has no expected message in this test";
+    try {
+      load_config(config_path("bad/" + f));
+      ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(it->second), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Configs, AllErrorsAreReportedTogether) {
+  try {
+    parse_config(json::parse(R"({"packer": {"type": "packers.shelf", "gutter": -1, "max_page_size": "x"}, "texture": {"fill": "no"}})"), "t");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.errors.size(), 3u) << e.what();
+  }
+}
+
+TEST(Configs, OverridesBySectionAndByStageName) {
+  const PipelineConfig a = load_config(config_path("repack.json"), {"packer.gutter=7", "texture.filter=bicubic"});
+  EXPECT_EQ(a.packer.options.get_int("gutter"), 7);
+  EXPECT_EQ(a.texture.get_string("filter"), "bicubic");
+  const PipelineConfig b = load_config(config_path("repack.json"), {"packers.shelf.gutter=2"});
+  EXPECT_EQ(b.packer.options.get_int("gutter"), 2);
+  EXPECT_THROW(load_config(config_path("repack.json"), {"packer.gutter=-3"}), ConfigError);
+  EXPECT_THROW(load_config(config_path("repack.json"), {"packers.tetrisx.gutter=2"}), ConfigError);
+  EXPECT_THROW(load_config(config_path("repack.json"), {"gutter"}), ConfigError);
+}
+
+TEST(Pipeline, EveryConfigRunsEndToEnd) {
+  const std::string dir = testing::temp_dir();
+  const std::string model = small_model(dir);
+  const auto files = files_in(config_path(""));
+  ASSERT_FALSE(files.empty());
+  for (const std::string& f : files) {
+    SCOPED_TRACE(f);
+    const PipelineConfig cfg = load_config(config_path(f));
+    RunOptions ro;
+    ro.input = model;
+    ro.output_dir = dir + "/out_" + fs::path(f).stem().string();
+    const json report = run_pipeline(cfg, ro);
+    EXPECT_TRUE(fs::exists(report["output"].get<std::string>()));
+    expect_same_geometry(model, report["output"].get<std::string>());
+    const eval::Comparison c = eval::compare_files(model, report["output"].get<std::string>());
+    EXPECT_EQ(c.match.lost, 0u);
+    EXPECT_EQ(c.match.added, 0u);
+    EXPECT_EQ(c.output.uv_overlaps, 0u);
+    EXPECT_GE(c.fidelity.psnr_db, 40.0);
+    EXPECT_LE(c.output.charts, c.input.charts);
+    for (const char* stage : {"read", "charts", "texture.resample", "write"})
+      EXPECT_TRUE(report["stages"].contains(stage)) << stage;
+    EXPECT_TRUE(fs::exists(ro.output_dir + "/small.report.json"));
+  }
+}
+
+TEST(Pipeline, RefusesToWriteIntoTheInputFolder) {
+  const std::string dir = testing::temp_dir();
+  const std::string model = small_model(dir);
+  RunOptions ro;
+  ro.input = model;
+  ro.output_dir = dir;
+  EXPECT_THROW(run_pipeline(load_config(config_path("repack.json")), ro), StageError);
+}
+
+TEST(Pipeline, BadInputNamesTheFile) {
+  const std::string dir = testing::temp_dir();
+  std::ofstream(dir + "/bad.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n";
+  RunOptions ro;
+  ro.input = dir + "/bad.obj";
+  ro.output_dir = dir + "/out";
+  try {
+    run_pipeline(load_config(config_path("repack.json")), ro);
+    FAIL();
+  } catch (const ObjError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.obj:4"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir + "/out/bad.obj"));
+}
+
+TEST(PipelineReal, RepackKeepsGeometryAndTexture) {
+  const auto models = testing::real_models(25000);
+  if (models.empty()) GTEST_SKIP() << "shared data absent: ../shared/data";
+  const PipelineConfig cfg = load_config(config_path("repack.json"));
+  for (const std::string& model : models) {
+    SCOPED_TRACE(model);
+    RunOptions ro;
+    ro.input = model;
+    ro.output_dir = testing::temp_dir("_" + fs::path(model).stem().string());
+    const json report = run_pipeline(cfg, ro);
+    const std::string out = report["output"].get<std::string>();
+    expect_same_geometry(model, out);
+    eval::EvalOptions eo;
+    eo.fidelity.samples = 200000;
+    const eval::Comparison c = eval::compare_files(model, out, eo);
+    EXPECT_EQ(c.match.lost, 0u);
+    EXPECT_EQ(c.match.moved_positions, 0u);
+    EXPECT_EQ(c.output.uv_overlaps, 0u);
+    EXPECT_EQ(c.output.charts, c.input.charts);
+    EXPECT_EQ(c.distortion.arap, 0.0);
+    EXPECT_GE(c.fidelity.psnr_db, 40.0);
+    // Only translated: every face is a whole-texel move, so the texture is copied exactly.
+    EXPECT_GT(c.fidelity.rigid_fraction, 0.999);
+    EXPECT_GT(c.fidelity.copied_fraction, 0.999);
+    std::printf("%s: %zu charts, %.2f MP -> %.2f MP, PSNR %.1f dB, copied %.4f, %.2f s\n", model.c_str(),
+                c.input.charts, c.input.megapixels, c.output.megapixels, c.fidelity.psnr_db,
+                c.fidelity.copied_fraction, report["total_time_s"].get<double>());
+  }
+}

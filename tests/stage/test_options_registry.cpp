@@ -1,0 +1,118 @@
+// Option validation, the registry's name rules and duplicate detection, and creating every
+// registered stage by name.
+#include "texdefrag/pipeline/pipeline.h"
+#include "texdefrag/stage/registry.h"
+#include "texdefrag/testing/fixtures.h"
+
+#include <gtest/gtest.h>
+
+using namespace texdefrag;
+
+namespace {
+
+class Dummy final : public Detector {
+ public:
+  void detect(StageContext&) override {}
+};
+
+StageInfo dummy_info(const std::string& name) {
+  StageInfo i;
+  i.name = name;
+  i.kind = StageKind::Detector;
+  i.description = "test";
+  i.options = {opt_double("angle_deg", 25, "angle").range(0, 90).unit("deg"), opt_int("count", 3, "n").at_least(1),
+               opt_enum("mode", "a", {"a", "b"}, "mode"), opt_bool("flag", false, "flag"), opt_string("path", "", "p")};
+  i.create = [] { return std::make_unique<Dummy>(); };
+  return i;
+}
+
+}  // namespace
+
+TEST(Options, DefaultsAndTypedAccess) {
+  const Options o = default_options(dummy_info("detectors.d"));
+  EXPECT_DOUBLE_EQ(o.get_double("angle_deg"), 25.0);
+  EXPECT_EQ(o.get_int("count"), 3);
+  EXPECT_EQ(o.get_string("mode"), "a");
+  EXPECT_FALSE(o.get_bool("flag"));
+  EXPECT_THROW(o.get_double("nope"), std::logic_error);
+}
+
+TEST(Options, ErrorsNameTheKeyAndNeverClamp) {
+  const StageInfo info = dummy_info("detectors.d");
+  std::vector<std::string> errors;
+  make_options(info, {{"angle_deg", 95}, {"count", 2.5}, {"mode", "c"}, {"flag", 1}, {"angle_treshold", 3}}, "detector", errors);
+  ASSERT_EQ(errors.size(), 5u);
+  EXPECT_EQ(errors[0], "detector: 'angle_deg' = 95 outside [0, 90]");
+  EXPECT_NE(errors[1].find("'count' must be an integer, got 2.5"), std::string::npos);
+  EXPECT_NE(errors[2].find("'flag' must be a bool, got integer"), std::string::npos);
+  EXPECT_NE(errors[3].find("'mode' = \"c\" is not one of \"a\" \"b\""), std::string::npos);
+  EXPECT_NE(errors[4].find("unknown option 'angle_treshold' for detectors.d"), std::string::npos);
+  errors.clear();
+  const Options ok = make_options(info, {{"angle_deg", 90}, {"count", 1}}, "detector", errors);
+  EXPECT_TRUE(errors.empty());
+  EXPECT_DOUBLE_EQ(ok.get_double("angle_deg"), 90.0);  // inclusive bounds
+  EXPECT_THROW(default_options(info, {{"angle_deg", -1}}), std::invalid_argument);
+}
+
+TEST(Options, NearestSuggestion) {
+  EXPECT_EQ(nearest("angle_treshold", {"angle_threshold", "gutter"}), "angle_threshold");
+  EXPECT_EQ(nearest("zzzzzz", {"angle_threshold", "gutter"}), "");
+  EXPECT_EQ(edit_distance("kitten", "sitting"), 3u);
+}
+
+TEST(Registry, RejectsMalformedNamesWrongKindAndDuplicates) {
+  Registry r;
+  EXPECT_THROW(r.add(dummy_info("Detectors.X"), "a.so"), RegistryError);
+  EXPECT_THROW(r.add(dummy_info("detectors"), "a.so"), RegistryError);
+  StageInfo wrong = dummy_info("mergers.x");  // declared as a detector
+  EXPECT_THROW(r.add(wrong, "a.so"), RegistryError);
+  StageInfo bad_default = dummy_info("detectors.bad");
+  bad_default.options[0].default_value = 100;
+  EXPECT_THROW(r.add(bad_default, "a.so"), RegistryError);
+  r.add(dummy_info("detectors.d"), "/plugins/first.so");
+  try {
+    r.add(dummy_info("detectors.d"), "/plugins/second.so");
+    FAIL() << "duplicate accepted";
+  } catch (const RegistryError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("/plugins/first.so"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("/plugins/second.so"), std::string::npos) << msg;
+  }
+  try {
+    r.create("detectors.e");
+    FAIL();
+  } catch (const RegistryError& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean 'detectors.d'"), std::string::npos);
+  }
+}
+
+TEST(Registry, BrokenModuleIsAnErrorNamingTheFile) {
+  const std::string dir = testing::temp_dir();
+  const std::string path = dir + "/texdefrag_broken.so";
+  FILE* f = std::fopen(path.c_str(), "w");
+  std::fputs("not a shared object", f);
+  std::fclose(f);
+  Registry r;
+  try {
+    r.load_module(path);
+    FAIL();
+  } catch (const RegistryError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos);
+  }
+}
+
+TEST(Registry, EveryBuiltStageIsCreatedByNameWithDefaults) {
+  Registry& r = Registry::instance();
+  r.load_plugins();
+  ASSERT_NE(r.find("detectors.none"), nullptr);
+  ASSERT_NE(r.find("mergers.none"), nullptr);
+  ASSERT_NE(r.find("packers.shelf"), nullptr);
+  for (const StageInfo* info : r.list()) {
+    auto s = r.create(info->name);
+    ASSERT_TRUE(s) << info->name;
+    s->set_options(default_options(*info));
+    EXPECT_FALSE(info->description.empty()) << info->name;
+    EXPECT_FALSE(info->doc.empty()) << info->name;
+    for (const OptionSpec& o : info->options) EXPECT_FALSE(o.help.empty()) << info->name << "." << o.key;
+  }
+}
