@@ -25,7 +25,11 @@ std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw ImageError(path + ": no such file");
   if (!fs::is_regular_file(path, ec)) throw ImageError(path + ": not a regular file");
-  auto in = OIIO::ImageInput::open(path);
+  // note: OpenImageIO premultiplies alpha on reading by default, which would change colours of
+  // partly transparent texels; ask for the stored (unassociated) values instead.
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  auto in = OIIO::ImageInput::open(path, &config);
   if (!in) {
     std::string why = OIIO::geterror();
     if (why.empty()) why = "unknown error";
@@ -106,6 +110,10 @@ void write_image(const std::string& path, const Image& image, ImageFormat format
   int channels = image.channels;
   if (format == ImageFormat::Jpeg && (channels == 2 || channels == 4)) channels -= 1;
   OIIO::ImageSpec spec(image.width, image.height, channels, OIIO::TypeDesc::UINT8);
+  if (channels == 2 || channels == 4) {
+    spec.alpha_channel = channels - 1;
+    spec.attribute("oiio:UnassociatedAlpha", 1);  // the pixels are not premultiplied: store as is
+  }
   if (format == ImageFormat::Jpeg) {
     spec.attribute("Compression", "jpeg:" + std::to_string(jpeg_quality));
     spec.attribute("CompressionQuality", jpeg_quality);

@@ -389,6 +389,7 @@ class ObjReader {
       if ((c.vn != kNoIndex) != has_vn)
         fail(path_, ln, "face mixes corners with and without normals (expected vn on every corner or on none)");
     }
+    if (group_pending_) resolve_group();
     Face f;
     f.material = material_;
     f.page = has_vt && material_ != kNoIndex ? page_of_material_[static_cast<size_t>(material_)] : kNoPage;
@@ -408,22 +409,33 @@ class ObjReader {
   }
 
   void group(Line& line, std::string_view kw) {
+    // note: a group is registered when the first face under it is read, so `groups` holds only
+    // groups that own faces, in order of first use; the writer emits exactly these, and a written
+    // file reads back with the same group indices. A bare `g`/`o` returns to the default group.
     const std::string_view names = line.rest();
-    if (names.empty()) {  // a bare `g`/`o` returns to the default group
+    pending_group_.clear();
+    if (!names.empty()) {
+      pending_group_.assign(kw);
+      pending_group_ += ' ';
+      pending_group_ += names;
+    }
+    group_pending_ = true;
+  }
+
+  void resolve_group() {
+    group_pending_ = false;
+    if (pending_group_.empty()) {
       group_ = kNoIndex;
       return;
     }
-    std::string key(kw);
-    key += ' ';
-    key += names;
-    const auto it = group_index_.find(key);
+    const auto it = group_index_.find(pending_group_);
     if (it != group_index_.end()) {
       group_ = it->second;
       return;
     }
     group_ = static_cast<int>(mesh_.groups.size());
-    group_index_.emplace(key, group_);
-    mesh_.groups.push_back(std::move(key));
+    group_index_.emplace(pending_group_, group_);
+    mesh_.groups.push_back(pending_group_);
   }
 
   void smoothing(int ln, Line& line) {
@@ -512,6 +524,8 @@ class ObjReader {
   std::vector<Corner> corners_;
   int material_ = kNoIndex;
   int group_ = kNoIndex;
+  std::string pending_group_;   ///< the last g/o statement, "" for the default group
+  bool group_pending_ = false;  ///< a g/o statement was read since the last face
   std::unordered_map<std::string, int> material_index_;
   std::unordered_map<std::string, int> group_index_;
   std::vector<MaterialSource> material_sources_;
