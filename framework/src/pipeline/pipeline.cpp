@@ -6,6 +6,7 @@
 #include "texdefrag/texture/resample.h"
 #include "texdefrag/util/memory.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -345,7 +346,12 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     });
   }
   report["total_time_s"] = seconds_since(t_start);
-  report["peak_rss_bytes"] = peak_rss_bytes();
+  // note: the kernel's peak counter is reset before each stage, so the run's peak is the largest
+  // stage peak.
+  size_t peak = peak_rss_bytes();
+  for (const auto& kv : report["stages"].items())
+    if (kv.value().contains("peak_rss_bytes")) peak = std::max(peak, kv.value()["peak_rss_bytes"].get<size_t>());
+  report["peak_rss_bytes"] = peak;
   if (options.write_output && config.output.get_bool("write_report"))
     write_file_atomic((fs::path(options.output_dir) / (stem + ".report.json")).string(), report.dump(2) + "\n");
   return report;
