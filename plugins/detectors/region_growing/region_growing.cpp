@@ -1,0 +1,453 @@
+// detectors.region_growing: planar regions by patch-based region growing with the Comprehensive
+// Planarity Index and three refinements, after
+//   Liu et al. 2024, "A Planar Feature-Preserving Texture Defragmentation Method for 3D Urban
+//   Building Models", Remote Sensing 16(22):4154, section 2.1 (patch identification, patch-based
+//   region growing, region growing refinements). Readings of what the paper leaves open are ours and
+//   documented in docs/detectors.md.
+//
+// Outline: units = input charts (patches), where a chart whose faces fold over a crease is first
+// split by normal clustering; seeds in decreasing area; a neighbour unit joins when its normal is
+// within the angle threshold of the region's refitted plane normal and its CPI passes; restart while
+// units remain. Then: elongated strips are dissolved into their neighbours, small smoothly curved
+// pieces are grouped into one component, tiny regions join the neighbouring region with more faces.
+#include "common/planarity.h"
+#include "common/region_output.h"
+#include "common/units.h"
+#include "texdefrag/stage/registry.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <map>
+#include <numeric>
+
+namespace texdefrag::detectors {
+namespace {
+
+constexpr const char* kName = "detectors.region_growing";
+
+struct Params {
+  double angle = 25 * M_PI / 180;  // radians
+  double cpi_min = 0.6;
+  CpiWeights w;
+  bool split = true;
+  double split_min_fraction = 0.15;
+  bool strips = true;
+  double strip_compactness = 0.04;
+  bool curved = true;
+  double curved_max_area_fraction = 0.02;
+  double curved_border_angle = 20 * M_PI / 180;
+  bool jagged = true;
+  int min_region_faces = 12;
+};
+
+Params read_params(const Options& o) {
+  Params p;
+  p.angle = o.get_double("angle_threshold_deg") * M_PI / 180;
+  p.cpi_min = o.get_double("cpi_min");
+  p.w.flatness = o.get_double("w_flatness");
+  p.w.compactness = o.get_double("w_compactness");
+  p.w.normal = o.get_double("w_normal");
+  p.split = o.get_bool("split_nonplanar_patches");
+  p.split_min_fraction = o.get_double("split_min_fraction");
+  p.strips = o.get_bool("elongated_strips");
+  p.strip_compactness = o.get_double("strip_compactness");
+  p.curved = o.get_bool("curved_components");
+  p.curved_max_area_fraction = o.get_double("curved_max_area_fraction");
+  p.curved_border_angle = o.get_double("curved_border_angle_deg") * M_PI / 180;
+  p.jagged = o.get_bool("jagged_borders");
+  p.min_region_faces = static_cast<int>(o.get_int("min_region_faces"));
+  return p;
+}
+
+struct UnionFind {
+  std::vector<int> p;
+  explicit UnionFind(size_t n) : p(n) { std::iota(p.begin(), p.end(), 0); }
+  int find(int x) {
+    while (p[static_cast<size_t>(x)] != x) x = p[static_cast<size_t>(x)] = p[static_cast<size_t>(p[static_cast<size_t>(x)])];
+    return x;
+  }
+};
+
+/// Units: input charts, each split into normal clusters when it is not planar (section 2 of the doc).
+/// Returns face -> unit and fills the split counters.
+std::vector<int> make_units(const StageContext& ctx, const Params& p, int& num_units, json& rep) {
+  const TexturedMesh& mesh = *ctx.mesh;
+  const Topology& topo = *ctx.topology;
+  const Atlas& in = ctx.input_charts->atlas;
+  const size_t nf = mesh.faces.size();
+  std::vector<int> unit(nf, -1);
+  const std::vector<std::vector<int>> chart_faces = in.chart_faces();
+  std::vector<Vec3> fn(nf, Vec3::Zero());
+  std::vector<double> fa(nf, 0);
+  for (size_t f = 0; f < nf; ++f) {
+    if (in.face_chart[f] < 0) continue;
+    fn[f] = face_normal(mesh, f);
+    fa[f] = face_area_3d(mesh, f);
+  }
+  num_units = 0;
+  size_t split_charts = 0, split_units = 0;
+  std::vector<int> cluster(nf, -1);
+  std::vector<Vec3> csum;
+  std::vector<double> carea;
+  for (size_t c = 0; c < chart_faces.size(); ++c) {
+    std::vector<int> faces = chart_faces[c];
+    bool do_split = false;
+    if (p.split && faces.size() >= 2) {
+      // note: seeds in decreasing face area; a face joins a cluster when its normal is within the
+      // growing threshold of the cluster's area-weighted mean normal (same criterion as growth).
+      std::stable_sort(faces.begin(), faces.end(), [&](int a, int b) { return fa[static_cast<size_t>(a)] > fa[static_cast<size_t>(b)]; });
+      csum.clear();
+      carea.clear();
+      double total = 0;
+      for (int seed : faces) {
+        total += fa[static_cast<size_t>(seed)];
+        if (cluster[static_cast<size_t>(seed)] >= 0) continue;
+        const int id = static_cast<int>(csum.size());
+        csum.push_back(fa[static_cast<size_t>(seed)] * fn[static_cast<size_t>(seed)]);
+        carea.push_back(fa[static_cast<size_t>(seed)]);
+        cluster[static_cast<size_t>(seed)] = id;
+        std::deque<int> q{seed};
+        while (!q.empty()) {
+          const int f = q.front();
+          q.pop_front();
+          for (int k = 0; k < 3; ++k) {
+            const Edge& e = topo.edges[static_cast<size_t>(topo.face_edge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
+            for (int i = 0; i < e.num_faces; ++i) {
+              const int g = topo.edge_faces[static_cast<size_t>(e.first_incidence + i)].face;
+              if (g == f || cluster[static_cast<size_t>(g)] >= 0 || in.face_chart[static_cast<size_t>(g)] != static_cast<int>(c)) continue;
+              if (!(fa[static_cast<size_t>(g)] > 0) || normal_angle(fn[static_cast<size_t>(g)], csum[static_cast<size_t>(id)]) >= p.angle) continue;
+              cluster[static_cast<size_t>(g)] = id;
+              csum[static_cast<size_t>(id)] += fa[static_cast<size_t>(g)] * fn[static_cast<size_t>(g)];
+              carea[static_cast<size_t>(id)] += fa[static_cast<size_t>(g)];
+              q.push_back(g);
+            }
+          }
+        }
+      }
+      int big = 0;
+      for (double a : carea) big += total > 0 && a >= p.split_min_fraction * total;
+      do_split = big >= 2;
+    }
+    if (do_split) {
+      ++split_charts;
+      split_units += csum.size();
+      for (int f : faces) unit[static_cast<size_t>(f)] = num_units + cluster[static_cast<size_t>(f)];
+      num_units += static_cast<int>(csum.size());
+    } else {
+      for (int f : faces) unit[static_cast<size_t>(f)] = num_units;
+      ++num_units;
+    }
+    for (int f : faces) cluster[static_cast<size_t>(f)] = -1;
+  }
+  rep["patches"] = chart_faces.size();
+  rep["patches_split"] = split_charts;
+  rep["units_from_split_patches"] = split_units;
+  return unit;
+}
+
+/// Per-region aggregates of a unit labelling.
+struct RegionSet {
+  int n = 0;
+  std::vector<PlaneMoments> m;
+  std::vector<PlaneFit> fit;
+  std::vector<std::map<int, double>> nbr;  // neighbour region -> shared border length
+};
+
+RegionSet aggregate(const UnitGraph& g, const std::vector<int>& unit_region, int n) {
+  RegionSet rs;
+  rs.n = n;
+  rs.m.assign(static_cast<size_t>(n), PlaneMoments{});
+  rs.nbr.assign(static_cast<size_t>(n), {});
+  for (int u = 0; u < g.num_units; ++u) {
+    const int r = unit_region[static_cast<size_t>(u)];
+    rs.m[static_cast<size_t>(r)].add(g.moments[static_cast<size_t>(u)]);
+    for (int i = g.adj_offset[static_cast<size_t>(u)]; i < g.adj_offset[static_cast<size_t>(u) + 1]; ++i) {
+      const int s = unit_region[static_cast<size_t>(g.adj[static_cast<size_t>(i)])];
+      if (s != r) rs.nbr[static_cast<size_t>(r)][s] += g.adj_length[static_cast<size_t>(i)];
+    }
+  }
+  rs.fit.resize(static_cast<size_t>(n));
+  for (size_t r = 0; r < static_cast<size_t>(n); ++r) rs.fit[r] = fit_plane(rs.m[r]);
+  return rs;
+}
+
+/// Renumbers region labels densely (order of first unit). Returns the count.
+int compact_labels(std::vector<int>& unit_region) {
+  std::map<int, int> id;
+  for (int& r : unit_region) r = id.emplace(r, static_cast<int>(id.size())).first->second;
+  return static_cast<int>(id.size());
+}
+
+/// Patch-based growing (section 2.1.2). Units without area are left unassigned (-1).
+std::vector<int> grow(const UnitGraph& g, const Params& p, int& n, json& rep) {
+  const size_t nu = static_cast<size_t>(g.num_units);
+  std::vector<int> order;
+  for (int u = 0; u < g.num_units; ++u)
+    if (g.fits[static_cast<size_t>(u)].valid) order.push_back(u);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return g.moments[static_cast<size_t>(a)].area > g.moments[static_cast<size_t>(b)].area;
+  });
+  std::vector<int> region(nu, -1);
+  size_t angle_rej = 0, cpi_rej = 0;
+  n = 0;
+  std::deque<int> seeds;
+  for (int s0 : order) {
+    if (region[static_cast<size_t>(s0)] >= 0) continue;
+    const int r = n++;
+    PlaneMoments rm = g.moments[static_cast<size_t>(s0)];
+    PlaneFit rf = g.fits[static_cast<size_t>(s0)];
+    region[static_cast<size_t>(s0)] = r;
+    seeds.assign(1, s0);
+    while (!seeds.empty()) {
+      const int s = seeds.front();
+      seeds.pop_front();
+      for (int i = g.adj_offset[static_cast<size_t>(s)]; i < g.adj_offset[static_cast<size_t>(s) + 1]; ++i) {
+        const int v = g.adj[static_cast<size_t>(i)];
+        if (region[static_cast<size_t>(v)] >= 0 || !g.fits[static_cast<size_t>(v)].valid) continue;
+        const PlaneFit& vf = g.fits[static_cast<size_t>(v)];
+        const double theta = normal_angle(vf.normal, rf.normal);
+        if (theta >= p.angle) {
+          ++angle_rej;
+          continue;
+        }
+        if (planarity_index(vf, theta, p.w) < p.cpi_min) {
+          ++cpi_rej;
+          continue;
+        }
+        region[static_cast<size_t>(v)] = r;
+        rm.add(g.moments[static_cast<size_t>(v)]);
+        rf = fit_plane(rm);
+        seeds.push_back(v);
+      }
+    }
+  }
+  rep["grown_regions"] = n;
+  rep["angle_rejections"] = angle_rej;
+  rep["cpi_rejections"] = cpi_rej;
+  return region;
+}
+
+/// Units without area join the neighbouring region sharing the longest border (else their own).
+void place_zero_area_units(const UnitGraph& g, std::vector<int>& region, int& n, json& rep) {
+  size_t zero = 0;
+  bool changed = true;
+  while (changed) {
+    changed = false;
+    for (int u = 0; u < g.num_units; ++u) {
+      if (region[static_cast<size_t>(u)] >= 0) continue;
+      std::map<int, double> len;
+      for (int i = g.adj_offset[static_cast<size_t>(u)]; i < g.adj_offset[static_cast<size_t>(u) + 1]; ++i) {
+        const int r = region[static_cast<size_t>(g.adj[static_cast<size_t>(i)])];
+        if (r >= 0) len[r] += g.adj_length[static_cast<size_t>(i)];
+      }
+      if (len.empty()) continue;
+      region[static_cast<size_t>(u)] = std::max_element(len.begin(), len.end(), [](const auto& a, const auto& b) { return a.second < b.second; })->first;
+      ++zero;
+      changed = true;
+    }
+  }
+  for (int u = 0; u < g.num_units; ++u)
+    if (region[static_cast<size_t>(u)] < 0) {
+      region[static_cast<size_t>(u)] = n++;
+      ++zero;
+    }
+  rep["zero_area_units"] = zero;
+}
+
+/// Refinement: elongated strips (compactness < threshold, a neighbour with more faces) are dissolved;
+/// each of their units goes to the adjacent non-strip region sharing the longest border with it.
+void dissolve_strips(const UnitGraph& g, const Params& p, std::vector<int>& region, int& n, json& rep) {
+  const RegionSet rs = aggregate(g, region, n);
+  std::vector<uint8_t> strip(static_cast<size_t>(n), 0);
+  size_t strips = 0;
+  for (int r = 0; r < n; ++r) {
+    const PlaneFit& f = rs.fit[static_cast<size_t>(r)];
+    if (!f.valid || compactness_term(f.eigenvalues[1], f.eigenvalues[2]) >= p.strip_compactness) continue;
+    bool bigger = false;
+    for (const auto& [s, len] : rs.nbr[static_cast<size_t>(r)])
+      bigger |= rs.m[static_cast<size_t>(s)].faces > rs.m[static_cast<size_t>(r)].faces;
+    if (bigger) {
+      strip[static_cast<size_t>(r)] = 1;
+      ++strips;
+    }
+  }
+  std::vector<uint8_t> free(static_cast<size_t>(g.num_units), 0);
+  for (int u = 0; u < g.num_units; ++u) free[static_cast<size_t>(u)] = strip[static_cast<size_t>(region[static_cast<size_t>(u)])];
+  size_t moved = 0;
+  bool changed = true;
+  while (changed) {
+    changed = false;
+    for (int u = 0; u < g.num_units; ++u) {
+      if (!free[static_cast<size_t>(u)]) continue;
+      std::map<int, double> len;
+      for (int i = g.adj_offset[static_cast<size_t>(u)]; i < g.adj_offset[static_cast<size_t>(u) + 1]; ++i) {
+        const int v = g.adj[static_cast<size_t>(i)];
+        if (!free[static_cast<size_t>(v)]) len[region[static_cast<size_t>(v)]] += g.adj_length[static_cast<size_t>(i)];
+      }
+      if (len.empty()) continue;
+      region[static_cast<size_t>(u)] = std::max_element(len.begin(), len.end(), [](const auto& a, const auto& b) { return a.second < b.second; })->first;
+      free[static_cast<size_t>(u)] = 0;
+      ++moved;
+      changed = true;
+    }
+  }
+  n = compact_labels(region);
+  rep["strip_regions"] = strips;
+  rep["strip_units_moved"] = moved;
+}
+
+/// Refinement: adjacent small regions (area under a fraction of the textured area) whose shared
+/// border is smooth (border-length-weighted mean angle between the units facing each other under a
+/// threshold) are grouped into one component, as long as the component stays small.
+void group_curved(const UnitGraph& g, const Params& p, std::vector<int>& region, int& n, json& rep) {
+  const RegionSet rs = aggregate(g, region, n);
+  double total = 0;
+  for (const auto& m : rs.m) total += m.area;
+  const double cap = p.curved_max_area_fraction * total;
+  // Border angle between adjacent regions, weighted by shared length.
+  std::map<std::pair<int, int>, std::pair<double, double>> border;  // (angle * len, len)
+  for (int u = 0; u < g.num_units; ++u)
+    for (int i = g.adj_offset[static_cast<size_t>(u)]; i < g.adj_offset[static_cast<size_t>(u) + 1]; ++i) {
+      const int v = g.adj[static_cast<size_t>(i)];
+      const int a = region[static_cast<size_t>(u)], b = region[static_cast<size_t>(v)];
+      if (a >= b || !(rs.m[static_cast<size_t>(a)].area < cap) || !(rs.m[static_cast<size_t>(b)].area < cap)) continue;
+      const double len = g.adj_length[static_cast<size_t>(i)];
+      auto& e = border[{a, b}];
+      e.first += len * normal_angle(g.fits[static_cast<size_t>(u)].normal, g.fits[static_cast<size_t>(v)].normal);
+      e.second += len;
+    }
+  std::vector<std::tuple<double, int, int>> pairs;
+  for (const auto& [k, e] : border)
+    if (e.second > 0 && e.first / e.second < p.curved_border_angle) pairs.emplace_back(e.first / e.second, k.first, k.second);
+  std::sort(pairs.begin(), pairs.end());
+  UnionFind uf(static_cast<size_t>(n));
+  std::vector<double> area(static_cast<size_t>(n));
+  std::vector<int> members(static_cast<size_t>(n), 1);
+  for (int r = 0; r < n; ++r) area[static_cast<size_t>(r)] = rs.m[static_cast<size_t>(r)].area;
+  size_t grouped = 0;
+  for (const auto& [ang, a0, b0] : pairs) {
+    const int a = uf.find(a0), b = uf.find(b0);
+    if (a == b || !(area[static_cast<size_t>(a)] + area[static_cast<size_t>(b)] < cap)) continue;
+    uf.p[static_cast<size_t>(b)] = a;
+    area[static_cast<size_t>(a)] += area[static_cast<size_t>(b)];
+    members[static_cast<size_t>(a)] += members[static_cast<size_t>(b)];
+    ++grouped;
+  }
+  size_t components = 0;
+  for (int r = 0; r < n; ++r) components += uf.find(r) == r && members[static_cast<size_t>(r)] >= 2;
+  for (int& r : region) r = uf.find(r);
+  n = compact_labels(region);
+  rep["curved_components"] = components;
+  rep["curved_merges"] = grouped;
+}
+
+/// Refinement: regions with fewer than min_region_faces faces join the neighbouring region with the
+/// most faces (smallest first, sizes updated as they grow).
+void absorb_tiny(const UnitGraph& g, const Params& p, std::vector<int>& region, int& n, json& rep) {
+  const RegionSet rs = aggregate(g, region, n);
+  std::vector<int> faces(static_cast<size_t>(n));
+  for (int r = 0; r < n; ++r) faces[static_cast<size_t>(r)] = rs.m[static_cast<size_t>(r)].faces;
+  std::vector<int> order(static_cast<size_t>(n));
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return faces[static_cast<size_t>(a)] < faces[static_cast<size_t>(b)]; });
+  UnionFind uf(static_cast<size_t>(n));
+  std::vector<std::vector<int>> members(static_cast<size_t>(n));
+  for (int r = 0; r < n; ++r) members[static_cast<size_t>(r)] = {r};
+  size_t absorbed = 0, moved_faces = 0;
+  for (int r : order) {
+    const int root = uf.find(r);
+    if (faces[static_cast<size_t>(root)] >= p.min_region_faces) continue;
+    // Neighbours of the group rooted at `root`: those of all its members.
+    std::map<int, double> len;
+    for (int m : members[static_cast<size_t>(root)])
+      for (const auto& [s, l] : rs.nbr[static_cast<size_t>(m)]) len[uf.find(s)] += l;
+    int best = -1;
+    double best_len = 0;
+    for (const auto& [s, l] : len) {
+      if (s == root) continue;
+      if (best < 0 || faces[static_cast<size_t>(s)] > faces[static_cast<size_t>(best)] ||
+          (faces[static_cast<size_t>(s)] == faces[static_cast<size_t>(best)] && l > best_len)) {
+        best = s;
+        best_len = l;
+      }
+    }
+    if (best < 0) continue;
+    uf.p[static_cast<size_t>(root)] = best;
+    moved_faces += static_cast<size_t>(faces[static_cast<size_t>(root)]);
+    faces[static_cast<size_t>(best)] += faces[static_cast<size_t>(root)];
+    auto& mb = members[static_cast<size_t>(best)];
+    mb.insert(mb.end(), members[static_cast<size_t>(root)].begin(), members[static_cast<size_t>(root)].end());
+    members[static_cast<size_t>(root)].clear();
+    ++absorbed;
+  }
+  for (int& r : region) r = uf.find(r);
+  n = compact_labels(region);
+  rep["jagged_regions_absorbed"] = absorbed;
+  rep["jagged_faces_moved"] = moved_faces;
+}
+
+class RegionGrowingDetector final : public Detector {
+ public:
+  static StageInfo info() {
+    StageInfo i;
+    i.name = kName;
+    i.kind = StageKind::Detector;
+    i.description = "Planar regions by patch-based region growing with the Comprehensive Planarity Index (Liu et al. 2024)";
+    i.doc = "docs/detectors.md";
+    i.options = {
+        opt_double("angle_threshold_deg", 25, "A unit joins a region only when its normal is within this angle of the region's fitted normal").range(0, 90).unit("deg"),
+        opt_double("cpi_min", 0.6, "Minimum Comprehensive Planarity Index of a joining unit").range(0, 1),
+        opt_double("w_flatness", 0.4, "CPI weight w1 of the flatness term 1 - s1/s2").range(0, 1),
+        opt_double("w_compactness", 0.3, "CPI weight w2 of the compactness term s2/s3").range(0, 1),
+        opt_double("w_normal", 0.3, "CPI weight w3 of the normal-consistency term 1 - sin(theta)").range(0, 1),
+        opt_bool("split_nonplanar_patches", true, "Split a chart whose faces form several normal clusters (a chart wrapping a building corner) into one unit per cluster"),
+        opt_double("split_min_fraction", 0.15, "A chart is split only when at least two of its normal clusters each hold this fraction of its area").range(0, 0.5),
+        opt_bool("elongated_strips", true, "Refinement: dissolve strip-shaped regions into their neighbours"),
+        opt_double("strip_compactness", 0.04, "A region is a strip when s2/s3 of its points is below this (0.04: length over 5 times the width)").range(0, 1),
+        opt_bool("curved_components", true, "Refinement: group adjacent small regions joined by a smooth border into one component"),
+        opt_double("curved_max_area_fraction", 0.02, "Small region / component: area under this fraction of the textured area").range(0, 1),
+        opt_double("curved_border_angle_deg", 20, "A border is smooth when the mean angle between the units facing each other across it is below this").range(0, 90).unit("deg"),
+        opt_bool("jagged_borders", true, "Refinement: regions with fewer than min_region_faces faces join the neighbouring region with more faces"),
+        opt_int("min_region_faces", 12, "Regions smaller than this are absorbed by the jagged-border refinement").range(1, 1000000),
+    };
+    for (OptionSpec& o : output_options()) i.options.push_back(std::move(o));
+    i.create = [] { return std::make_unique<RegionGrowingDetector>(); };
+    return i;
+  }
+
+  void detect(StageContext& ctx) override {
+    if (!ctx.mesh || !ctx.topology || !ctx.input_charts || !ctx.report)
+      throw StageError(std::string(kName) + ": needs the mesh, its topology, its charts and a report node");
+    const Params p = read_params(options());
+    json& rep = *ctx.report;
+    ctx.step(kName, 0.0);
+    int nu = 0;
+    std::vector<int> face_unit = make_units(ctx, p, nu, rep);
+    ctx.step(kName, 0.2);
+    const UnitGraph g = build_unit_graph(*ctx.mesh, *ctx.topology, std::move(face_unit), nu, reference_point(*ctx.mesh));
+    rep["units"] = nu;
+    ctx.step(kName, 0.4);
+    int n = 0;
+    std::vector<int> region = grow(g, p, n, rep);
+    place_zero_area_units(g, region, n, rep);
+    n = compact_labels(region);
+    ctx.step(kName, 0.7);
+    if (p.strips) dissolve_strips(g, p, region, n, rep);
+    if (p.curved) group_curved(g, p, region, n, rep);
+    if (p.jagged) absorb_tiny(g, p, region, n, rep);
+    ctx.step(kName, 0.9);
+    std::vector<int> face_label(ctx.mesh->faces.size(), -1);
+    for (size_t f = 0; f < face_label.size(); ++f)
+      if (g.face_unit[f] >= 0) face_label[f] = region[static_cast<size_t>(g.face_unit[f])];
+    ctx.regions = regions_from_labels(face_label);
+    report_region_stats(ctx.regions, rep);
+    write_region_outputs(kName, options(), ctx);
+    ctx.step(kName, 1.0);
+  }
+};
+
+}  // namespace
+}  // namespace texdefrag::detectors
+
+TEXDEFRAG_PLUGIN(texdefrag::detectors::RegionGrowingDetector)

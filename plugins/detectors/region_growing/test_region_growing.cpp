@@ -1,0 +1,191 @@
+// Tests of detectors.region_growing (Liu et al. 2024, section 2.1) and the shared plane-fit/CPI code.
+#include "common/accuracy.h"
+#include "common/planarity.h"
+#include "common/test_meshes.h"
+#include "texdefrag/io/obj.h"
+#include "texdefrag/stage/registry.h"
+#include "texdefrag/testing/fixtures.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+using namespace texdefrag;
+using namespace texdefrag::detectors;
+namespace tmesh = texdefrag::detectors::testmesh;
+
+namespace {
+
+constexpr const char* kRG = "detectors.region_growing";
+constexpr const char* kAG = "detectors.angle_growing";
+
+SegmentationScore score(const tmesh::Case& c, const std::string& name, const json& opts = json::object(),
+                        json* report = nullptr) {
+  const tmesh::Detection d = tmesh::run_detector(name, c.mesh, opts);
+  if (report) *report = d.report;
+  const SegmentationScore s = score_segmentation(d.regions.face_region, c.truth);
+  std::printf("%-14s %-26s %-50s accuracy %.3f regions %d (truth %d) over %d under %d\n", c.name.c_str(),
+              name.c_str(), opts.dump().c_str(), s.accuracy, s.regions, s.truth_planes, s.over_segmented,
+              s.under_segmented);
+  return s;
+}
+
+void expect_valid(const TexturedMesh& m, const Regions& r) {
+  ASSERT_EQ(r.face_region.size(), m.faces.size());
+  std::vector<int> used(static_cast<size_t>(r.num_regions), 0);
+  for (size_t f = 0; f < m.faces.size(); ++f) {
+    if (m.faces[f].page == kNoPage) {
+      EXPECT_EQ(r.face_region[f], -1);
+    } else {
+      ASSERT_GE(r.face_region[f], 0);
+      ASSERT_LT(r.face_region[f], r.num_regions);
+      used[static_cast<size_t>(r.face_region[f])] = 1;
+    }
+  }
+  for (int u : used) EXPECT_EQ(u, 1) << "empty region id";
+}
+
+}  // namespace
+
+TEST(DetectorsPlanarity, CpiTermsFollowTheirDefinitions) {
+  EXPECT_DOUBLE_EQ(flatness_term(0, 2), 1.0);
+  EXPECT_DOUBLE_EQ(flatness_term(1, 4), 0.75);
+  EXPECT_DOUBLE_EQ(flatness_term(3, 3), 0.0);
+  EXPECT_DOUBLE_EQ(flatness_term(0, 0), 0.0);  // no plane through a point or a segment
+  EXPECT_DOUBLE_EQ(compactness_term(1, 4), 0.25);
+  EXPECT_DOUBLE_EQ(compactness_term(2, 2), 1.0);
+  EXPECT_DOUBLE_EQ(compactness_term(0, 0), 0.0);
+  EXPECT_DOUBLE_EQ(normal_consistency_term(0), 1.0);
+  EXPECT_NEAR(normal_consistency_term(M_PI / 6), 0.5, 1e-12);
+  EXPECT_DOUBLE_EQ(normal_consistency_term(M_PI), 0.0);  // facing away is not "consistent again"
+  PlaneFit f;
+  f.valid = true;
+  f.eigenvalues = Vec3(0, 1, 4);
+  EXPECT_NEAR(planarity_index(f, M_PI / 6, CpiWeights{}), 0.4 * 1 + 0.3 * 0.25 + 0.3 * 0.5, 1e-12);
+  EXPECT_NEAR(planarity_index(f, 0, CpiWeights{1, 0, 0}), 1.0, 1e-12);
+  f.valid = false;
+  EXPECT_EQ(planarity_index(f, 0, CpiWeights{}), 0.0);
+}
+
+TEST(DetectorsPlanarity, FitOfRectangleHasExactEigenvaluesAndOrientedNormal) {
+  // 2 x 1 rectangle in the plane z = 3, counter-clockwise seen from +z: uniform area covariance
+  // has variances 2^2/12 and 1^2/12 and 0 across.
+  PlaneMoments m;
+  const Vec3 a(0, 0, 3), b(2, 0, 3), c(2, 1, 3), d(0, 1, 3);
+  m.add_triangle(a, b, c);
+  m.add_triangle(a, c, d);
+  const PlaneFit f = fit_plane(m);
+  ASSERT_TRUE(f.valid);
+  EXPECT_NEAR(f.eigenvalues[0], 0.0, 1e-12);
+  EXPECT_NEAR(f.eigenvalues[1], 1.0 / 12, 1e-12);
+  EXPECT_NEAR(f.eigenvalues[2], 4.0 / 12, 1e-12);
+  EXPECT_NEAR(f.normal.z(), 1.0, 1e-12);
+  EXPECT_NEAR((f.centroid - Vec3(1, 0.5, 3)).norm(), 0.0, 1e-12);
+  PlaneMoments flipped;
+  flipped.add_triangle(a, c, b);
+  flipped.add_triangle(a, d, c);
+  EXPECT_NEAR(fit_plane(flipped).normal.z(), -1.0, 1e-12);
+  EXPECT_NEAR(normal_angle(Vec3::UnitZ(), -Vec3::UnitZ()), M_PI, 1e-12);
+  EXPECT_FALSE(fit_plane(PlaneMoments{}).valid);
+}
+
+TEST(DetectorsRegionGrowing, DeclaresOptionsAndRejectsOutOfRange) {
+  Registry::instance().load_plugins();
+  const StageInfo* info = Registry::instance().find(kRG);
+  ASSERT_NE(info, nullptr);
+  EXPECT_EQ(info->doc, "docs/detectors.md");
+  const Options o = default_options(*info);
+  EXPECT_EQ(o.get_double("angle_threshold_deg"), 25);
+  EXPECT_EQ(o.get_double("w_flatness"), 0.4);
+  EXPECT_EQ(o.get_double("w_compactness"), 0.3);
+  EXPECT_EQ(o.get_double("w_normal"), 0.3);
+  EXPECT_EQ(o.get_string("write_labels"), "");
+  EXPECT_THROW(default_options(*info, {{"angle_threshold_deg", 95}}), std::invalid_argument);
+  EXPECT_THROW(default_options(*info, {{"angle_treshold_deg", 20}}), std::invalid_argument);
+}
+
+TEST(DetectorsRegionGrowing, FragmentedPlaneIsOneRegionAndUntexturedFacesStayOutside) {
+  TexturedMesh m = texdefrag::testing::fragmented_grid_mesh(6, 5, 256, "page.png");
+  m.faces[7].page = kNoPage;  // one untextured face
+  m.faces[7].vt = {kNoIndex, kNoIndex, kNoIndex};
+  const tmesh::Detection d = tmesh::run_detector(kRG, m);
+  expect_valid(m, d.regions);
+  EXPECT_EQ(d.regions.num_regions, 1);
+  EXPECT_EQ(d.regions.face_region[7], -1);
+  EXPECT_EQ(d.report["regions"], 1);
+  EXPECT_EQ(d.report["textured_faces"], 59);
+}
+
+TEST(DetectorsRegionGrowing, JaggedBordersCaseBeatsAngleGrowing) {
+  const tmesh::Case c = tmesh::jagged_case();
+  const auto rg = score(c, kRG);
+  const auto ag = score(c, kAG);
+  score(c, kRG, {{"jagged_borders", false}});
+  EXPECT_GE(rg.accuracy, 0.97);
+  EXPECT_EQ(rg.regions, 2);
+  EXPECT_GT(rg.accuracy, ag.accuracy + 0.1);
+}
+
+TEST(DetectorsRegionGrowing, StripCaseDissolvesTheLedgeIntoTheFacade) {
+  const tmesh::Case c = tmesh::strip_case();
+  json rep;
+  const auto rg = score(c, kRG, json::object(), &rep);
+  const auto off = score(c, kRG, {{"elongated_strips", false}});
+  const auto ag = score(c, kAG);
+  EXPECT_GE(rg.accuracy, 0.99);
+  EXPECT_EQ(rg.regions, 1);
+  EXPECT_GE(rep["strip_regions"].get<int>(), 2);
+  EXPECT_GT(rg.accuracy, off.accuracy + 0.05);
+  EXPECT_GT(rg.accuracy, ag.accuracy + 0.05);
+}
+
+TEST(DetectorsRegionGrowing, CurvedCornerDoesNotJoinTheTwoFacades) {
+  const tmesh::Case c = tmesh::curved_case();
+  json rep;
+  const auto rg = score(c, kRG, json::object(), &rep);
+  const auto off = score(c, kRG, {{"curved_components", false}});
+  const auto ag = score(c, kAG);
+  EXPECT_EQ(rg.under_segmented, 0);  // facades A and B never share a region
+  EXPECT_GT(rg.accuracy, ag.accuracy + 0.1);
+  EXPECT_GE(rg.accuracy, off.accuracy);
+  EXPECT_LE(rg.regions, off.regions);
+  EXPECT_GE(rep["curved_components"].get<int>(), 1);
+}
+
+TEST(DetectorsRegionGrowing, ChartWrappingACornerIsSplit) {
+  const tmesh::Case c = tmesh::corner_chart_case();
+  json rep;
+  const auto on = score(c, kRG, json::object(), &rep);
+  const auto off = score(c, kRG, {{"split_nonplanar_patches", false}});
+  EXPECT_EQ(rep["patches_split"], 4);
+  EXPECT_GE(on.accuracy, 0.99);
+  EXPECT_EQ(on.regions, 2);
+  EXPECT_GT(on.accuracy, off.accuracy);
+}
+
+TEST(DetectorsRegionGrowing, WritesLabelsThatDetectorsLabelsReadsBackAndAColoredModel) {
+  const tmesh::Case c = tmesh::jagged_case();
+  const std::string dir = texdefrag::testing::temp_dir();
+  for (const std::string ext : {".txt", ".json"}) {
+    const std::string labels = dir + "/regions" + ext;
+    const std::string colored = dir + "/colored" + ext + ".obj";
+    const tmesh::Detection d = tmesh::run_detector(kRG, c.mesh, {{"write_labels", labels}, {"write_colored", colored}});
+    const tmesh::Detection back = tmesh::run_detector("detectors.labels", c.mesh, {{"path", labels}});
+    EXPECT_EQ(back.regions.face_region, d.regions.face_region);
+    EXPECT_EQ(back.regions.num_regions, d.regions.num_regions);
+    ASSERT_TRUE(std::filesystem::exists(colored));
+    const TexturedMesh cm = read_obj(colored);
+    ASSERT_EQ(cm.faces.size(), c.mesh.faces.size());
+    ASSERT_EQ(cm.pages.size(), 1u);
+    // Faces of one region share one palette texcoord, different regions different ones.
+    for (size_t f = 1; f < cm.faces.size(); ++f)
+      EXPECT_EQ(cm.faces[f].vt[0] == cm.faces[0].vt[0], d.regions.face_region[f] == d.regions.face_region[0]);
+  }
+}
+
+TEST(DetectorsRegionGrowing, ProgressCanCancel) {
+  const tmesh::Case c = tmesh::jagged_case();
+  EXPECT_THROW(tmesh::run_detector(kRG, c.mesh, json::object(), [](const std::string&, double f) { return f < 0.5; }),
+               Cancelled);
+}
