@@ -179,6 +179,19 @@ Case curved_case() {
       b.add(arc(s, k), arc(s + 1, k + 1), arc(s, k + 1), chart, 2);
     }
   next += seg * 3;
+  // A free-standing half-cylinder column (radius 1, 24 segments of 7.5 degrees), not touching the rest.
+  const int cseg = 24;
+  auto col = [&](int s, double z) {
+    const double phi = M_PI * s / cseg;
+    return Vec3(-6 + std::cos(phi), -8 - std::sin(phi), z);
+  };
+  for (int s = 0; s < cseg; ++s)
+    for (int k = 0; k < 6; ++k) {
+      const int chart = next + s * 3 + k / 2;
+      b.add(col(s, k), col(s + 1, k), col(s + 1, k + 1), chart, 4);
+      b.add(col(s, k), col(s + 1, k + 1), col(s, k + 1), chart, 4);
+    }
+  next += cseg * 3;
   // Ground, below the building, not sharing edges with it.
   b.add_grid(Vec3(-20.5, -20.5, -0.5), Vec3(40, 0, 0), Vec3(0, 40, 0), 10, 10, 2, 2, next, 3);
   return b.build("curved");

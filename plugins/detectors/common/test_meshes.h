@@ -53,8 +53,9 @@ Case jagged_case();
 /// Figure 3b: a facade with a V-shaped ledge (two tilted 1-quad rows, strip-shaped charts) that does
 /// not span the whole width. Truth: everything is the facade (0): the ledge is a facade detail.
 Case strip_case();
-/// Figure 3c: ground, two facades joined by a rounded corner (quarter cylinder, 12 segments).
-/// Truth: facade A 0, facade B 1, corner 2, ground 3.
+/// Figure 3c: ground, two facades joined by a rounded corner (quarter cylinder of radius 6, 12
+/// segments) and a free-standing half-cylinder column (radius 1, 24 segments).
+/// Truth: facade A 0, facade B 1, corner 2, ground 3, column 4.
 Case curved_case();
 /// A wall and a roof where a row of charts wraps the crease (half of each such chart on the wall,
 /// half on the roof). Truth: wall 0, roof 1.

@@ -31,7 +31,7 @@ std::string error_of(const TexturedMesh& m, const json& opts) {
 TEST(DetectorsLabels, ReadsTextAndJsonLabels) {
   const TexturedMesh m = texdefrag::testing::grid_mesh(2, 1, 64, "p.png");  // 4 faces
   const std::string dir = texdefrag::testing::temp_dir();
-  const auto t = tmesh::run_detector(kL, m, {{"path", write(dir + "/l.txt", "# classes\n7\n7\n-3\n7\n")}});
+  const auto t = tmesh::run_detector(kL, m, {{"path", write(dir + "/l.txt", "# classes\n7\n7\n3000000\n\n7\n")}});
   EXPECT_EQ(t.regions.num_regions, 2);
   EXPECT_EQ(t.regions.face_region, (std::vector<int>{0, 0, 1, 0}));  // largest label first
   const auto j = tmesh::run_detector(kL, m, {{"path", write(dir + "/l.json", R"({"face_labels": [1, 2, 2, 5]})")}});
