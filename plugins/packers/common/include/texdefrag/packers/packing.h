@@ -1,0 +1,144 @@
+// Shared machinery of the packers (packers.square_tetris, packers.tetris, packers.shelf): common
+// options, per-chart preparation (outline, orientation, texel-grid anchoring), page sizing, and
+// writing the Layout and the report node.
+//
+// Exact copying (METHOD.md section 2, "shift anchors onto the input texel grid"): a face whose
+// working UVs are its input UVs rotated by a multiple of 90 degrees and translated is "grid-exact".
+// A chart whose largest group of grid-exact faces (same quarter turn, same fractional translation)
+// covers at least `exact_fraction` of its UV area is an EXACT chart: it is only ever rotated by
+// multiples of 90 degrees and translated so that the group's input texel grid lands on the output
+// texel grid, hence the resampler copies those faces texel for texel. Other charts are FREE: they
+// may be rotated by any angle (the minimum-area rectangle's, when `free_rotation` is on and the
+// rectangle shrinks by more than `rotation_gain`).
+//
+// Footprints: a chart in orientation q (q quarter turns after its base transform) covers the cells
+// floor(min)..floor(max) of its bounding box (see geometry.h); packers place those cell boxes at
+// integer positions with `gutter` empty cells between charts.
+#pragma once
+
+#include "texdefrag/packers/geometry.h"
+#include "texdefrag/stage/stage.h"
+
+#include <array>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace texdefrag::packing {
+
+/// Options shared by every packer, read from the stage's validated Options.
+struct CommonSettings {
+  int gutter = 4;               ///< texels of empty space between charts, [0, 64]
+  int max_page_size = 8192;     ///< texels, largest page width and height
+  int page_multiple = 32;       ///< page sides are rounded up to this multiple (texels)
+  bool power_of_two = false;    ///< round page sides up to a power of two instead
+  bool allow_rotation = true;   ///< charts may be turned by 90/180/270 degrees
+  bool free_rotation = false;   ///< free charts may be rotated to their minimum-area rectangle
+  double rotation_gain = 0.05;  ///< relative rectangle-area gain required for a free rotation
+  double exact_fraction = 0.25; ///< grid-exact share of a chart's UV area that makes it exact
+  int width_trials = 5;         ///< page widths tried when everything fits on one page, [1, 16]
+};
+
+/// Declarations of the common options, appended to each packer's StageInfo::options.
+/// free_rotation_default: the default of `free_rotation` for this packer.
+std::vector<OptionSpec> common_options(bool free_rotation_default);
+
+/// Reads the common options from validated stage options (every key present).
+CommonSettings read_common(const Options& options);
+
+/// One chart prepared for packing.
+struct PackChart {
+  int id = -1;                 ///< chart index in the atlas
+  std::vector<int> faces;      ///< faces of the chart (textured, in face order)
+  std::vector<int> wedges;     ///< distinct wedges used by those faces
+  double uv_area = 0;          ///< texels^2, sum of |face UV area|
+  bool exact = false;          ///< placed with 90-degree turns and grid-aligned translation only
+  double exact_area = 0;       ///< texels^2 of the anchoring grid-exact face group
+  double angle = 0;            ///< radians, free rotation applied before the quarter turns (0 if exact)
+  Vec2 grid_offset = Vec2::Zero();  ///< subtracted after rotation so the anchor grid is integral
+  std::vector<Vec2> base;      ///< per entry of `wedges`: rotate(uv, angle) - grid_offset
+  std::vector<std::array<int, 3>> tris;  ///< per entry of `faces`: corner indices into `base`
+  /// Cell box size in orientation q = 0..3 (quarter turns applied to `base`), texels.
+  int w[4] = {1, 1, 1, 1}, h[4] = {1, 1, 1, 1};
+  /// Lowest cell corner of the box in orientation q: floor of the rotated base's minimum.
+  int ox[4] = {0, 0, 0, 0}, oy[4] = {0, 0, 0, 0};
+
+  /// Cell box area in orientation 0 (texels^2).
+  long long box_area() const { return static_cast<long long>(w[0]) * h[0]; }
+  /// The rasterised outline in orientation q, cell (0,0) = box corner (ox[q], oy[q]).
+  Mask raster(int q) const;
+};
+
+/// The charts of an atlas, prepared.
+struct PackInput {
+  const Atlas* atlas = nullptr;
+  std::vector<PackChart> charts;  ///< one per atlas chart, index = chart id
+  double total_uv_area = 0;       ///< texels^2
+};
+
+/// Extracts and prepares every chart of ctx.atlas. Exactness is judged against the input UVs of
+/// ctx.mesh (when ctx.mesh is null, e.g. packer unit tests on bare atlases, the atlas UVs are
+/// taken as the input UVs, so every chart is exact). Throws StageError (prefixed with
+/// `stage`) when the atlas is inconsistent (a wedge shared by two charts, a chart id out of range).
+PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const std::string& stage);
+
+/// Where one chart went: its cell box (without gutter) has its lowest corner at (x, y) on `page`,
+/// in orientation q (quarter turns).
+struct Placement {
+  int page = -1;
+  int x = 0, y = 0;
+  int q = 0;
+};
+
+/// Checks every chart fits in a max_page_size square with its gutter in some allowed orientation;
+/// throws StageError naming the first chart that does not (id, faces, size, limit).
+void check_chart_sizes(const PackInput& in, const CommonSettings& s, const std::string& stage);
+
+/// A page side rounded up to the page multiple (or power of two), capped at max_page_size.
+/// used: texels >= 0.
+int round_page_side(int used, const CommonSettings& s);
+
+/// Starting page width for single-page packing: sqrt(padded area / expected_efficiency), at least
+/// the widest chart's narrowest padded side, at most max_page_size, rounded to the page multiple.
+/// padded_area: texels^2 of the charts' cell boxes grown by the gutter.
+int initial_page_width(double padded_area, int min_width, double expected_efficiency,
+                       const CommonSettings& s);
+
+/// Result of a packer's run on one candidate page width.
+struct PackResult {
+  std::vector<Placement> placements;  ///< per chart
+  int pages = 0;
+  std::vector<Layout::PageSize> sizes;  ///< trimmed and rounded page sizes
+  size_t hole_fills = 0;                ///< charts placed into enclosed unused space (square_tetris)
+  double total_area() const;            ///< texels^2 of all pages
+};
+
+/// Packs with a few page widths and keeps the result with the fewest pages, then the least page
+/// area. When the charts' padded area is near or above one max_page_size page, only
+/// max_page_size is tried; otherwise `width_trials` widths from initial_page_width at expected
+/// efficiencies 1.0 down to 0.6. Results come back sized (size_pages).
+/// pack_with_width: packs every chart with pages of the given width (texels) and height limit
+/// max_page_size; must return one Placement per chart (page -1 for charts without faces).
+PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
+                           const std::function<PackResult(int width)>& pack_with_width);
+
+/// Cell box size of chart c in orientation q grown by the gutter (texels).
+inline int padded_w(const PackChart& c, int q, const CommonSettings& s) { return c.w[q] + s.gutter; }
+inline int padded_h(const PackChart& c, int q, const CommonSettings& s) { return c.h[q] + s.gutter; }
+
+/// Charts with faces, by decreasing padded box area (ties: chart id).
+std::vector<int> order_by_area(const PackInput& in, const CommonSettings& s);
+
+/// Trims each page to the cell boxes placed on it plus the gutter's upper half
+/// (gutter - gutter / 2) and rounds the sides (round_page_side). Fills r.sizes.
+void size_pages(const PackInput& in, const CommonSettings& s, PackResult& r);
+
+/// Writes ctx.layout (pages, chart_page, wedge_uv) and the report node: pages, page_sizes,
+/// packing_efficiency (chart UV area / page area), charts, exact charts, charts turned by 90/180/270,
+/// charts freely rotated, time_ms. Wedges used by no face keep (0, 0).
+void write_layout(StageContext& ctx, const PackInput& in, const PackResult& r, double time_ms);
+
+/// The final texel position of base point `b` of a chart placed with `p`.
+Vec2 place_point(const PackChart& c, const Placement& p, const Vec2& b);
+
+}  // namespace texdefrag::packing

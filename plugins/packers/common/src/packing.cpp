@@ -1,0 +1,344 @@
+// Shared packer machinery: options, chart preparation (exact-copy anchoring after the M-method,
+// Maggiordomo et al. 2021, section "packing": anchors shifted onto the input texel grid; minimum-
+// area rectangle orientation after Liu et al. 2024, section 2.3), page sizing and layout output.
+#include "texdefrag/packers/packing.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <tuple>
+
+namespace texdefrag::packing {
+
+std::vector<OptionSpec> common_options(bool free_rotation_default) {
+  return {
+      opt_int("gutter", 4, "Empty texels kept between charts (and half of it at the page border)")
+          .range(0, 64)
+          .unit("texels"),
+      opt_int("max_page_size", 8192, "Largest page width and height; more pages are opened when charts do not fit")
+          .range(64, 65536)
+          .unit("texels"),
+      opt_int("page_multiple", 32, "Page sides are trimmed to the used area and rounded up to this multiple")
+          .range(1, 4096)
+          .unit("texels"),
+      opt_bool("power_of_two", false, "Round page sides up to a power of two instead of page_multiple"),
+      opt_bool("allow_rotation", true, "Charts may be turned by 90, 180 or 270 degrees (exact, no resampling)"),
+      opt_bool("free_rotation", free_rotation_default,
+               "Charts that will be resampled anyway (not exact) are rotated to their minimum-area rectangle"),
+      opt_double("rotation_gain", 0.05,
+                 "A free rotation is applied only when it shrinks the bounding rectangle by more than this fraction")
+          .range(0, 1),
+      opt_double("exact_fraction", 0.25,
+                 "A chart whose grid-exact faces cover at least this fraction of its UV area keeps whole-texel "
+                 "placement (copied without resampling)")
+          .range(0, 1),
+      opt_int("width_trials", 5, "Page widths tried (keeping the smallest result) when all charts fit on one page")
+          .range(1, 16),
+  };
+}
+
+CommonSettings read_common(const Options& o) {
+  CommonSettings s;
+  s.gutter = static_cast<int>(o.get_int("gutter"));
+  s.max_page_size = static_cast<int>(o.get_int("max_page_size"));
+  s.page_multiple = static_cast<int>(o.get_int("page_multiple"));
+  s.power_of_two = o.get_bool("power_of_two");
+  s.allow_rotation = o.get_bool("allow_rotation");
+  s.free_rotation = o.get_bool("free_rotation");
+  s.rotation_gain = o.get_double("rotation_gain");
+  s.exact_fraction = o.get_double("exact_fraction");
+  s.width_trials = static_cast<int>(o.get_int("width_trials"));
+  return s;
+}
+
+Mask PackChart::raster(int q) const {
+  Mask m;
+  m.width = w[q];
+  m.height = h[q];
+  m.cells.assign(static_cast<size_t>(m.width) * static_cast<size_t>(m.height), 0);
+  const Vec2 o(ox[q], oy[q]);
+  for (const auto& t : tris)
+    rasterise_triangle(rotate90(base[static_cast<size_t>(t[0])], q) - o,
+                       rotate90(base[static_cast<size_t>(t[1])], q) - o,
+                       rotate90(base[static_cast<size_t>(t[2])], q) - o, m);
+  return m;
+}
+
+namespace {
+
+double tri_area(const Vec2& a, const Vec2& b, const Vec2& c) {
+  return 0.5 * std::abs((b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x()));
+}
+
+constexpr double kExactTol = 1e-6;  // texels: UV round-off allowed in a grid-exact face
+
+/// Quantised fractional part (1e-6 texel steps, in [0, 1e6)).
+long long frac_key(double t) {
+  long long k = std::llround((t - std::floor(t)) * 1e6);
+  return k >= 1000000 ? 0 : k;
+}
+
+void compute_boxes(PackChart& c) {
+  for (int q = 0; q < 4; ++q) {
+    double xmin = 1e300, ymin = 1e300, xmax = -1e300, ymax = -1e300;
+    for (const Vec2& b : c.base) {
+      const Vec2 p = rotate90(b, q);
+      xmin = std::min(xmin, p.x());
+      xmax = std::max(xmax, p.x());
+      ymin = std::min(ymin, p.y());
+      ymax = std::max(ymax, p.y());
+    }
+    if (c.base.empty()) xmin = xmax = ymin = ymax = 0;
+    c.ox[q] = static_cast<int>(std::floor(xmin));
+    c.oy[q] = static_cast<int>(std::floor(ymin));
+    c.w[q] = static_cast<int>(std::floor(xmax)) - c.ox[q] + 1;
+    c.h[q] = static_cast<int>(std::floor(ymax)) - c.oy[q] + 1;
+  }
+}
+
+}  // namespace
+
+PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const std::string& stage) {
+  PackInput in;
+  const Atlas& a = ctx.atlas;
+  in.atlas = &a;
+  in.charts.resize(static_cast<size_t>(std::max(0, a.num_charts)));
+  for (size_t i = 0; i < in.charts.size(); ++i) in.charts[i].id = static_cast<int>(i);
+  std::vector<int> wedge_chart(a.wedge_uv.size(), -1);
+  std::vector<int> wedge_local(a.wedge_uv.size(), -1);
+  for (size_t f = 0; f < a.face_chart.size(); ++f) {
+    const int ch = a.face_chart[f];
+    if (ch < 0) continue;
+    if (ch >= a.num_charts)
+      throw StageError(stage + ": face " + std::to_string(f) + " has chart " + std::to_string(ch) +
+                       " but the atlas has " + std::to_string(a.num_charts) + " charts");
+    PackChart& c = in.charts[static_cast<size_t>(ch)];
+    std::array<int, 3> t{};
+    for (int k = 0; k < 3; ++k) {
+      const int wdg = a.face_wedge[f][static_cast<size_t>(k)];
+      if (wdg < 0 || static_cast<size_t>(wdg) >= a.wedge_uv.size())
+        throw StageError(stage + ": face " + std::to_string(f) + " of chart " + std::to_string(ch) +
+                         " has no valid wedge at corner " + std::to_string(k));
+      int& owner = wedge_chart[static_cast<size_t>(wdg)];
+      if (owner >= 0 && owner != ch)
+        throw StageError(stage + ": wedge " + std::to_string(wdg) + " is shared by charts " +
+                         std::to_string(owner) + " and " + std::to_string(ch));
+      if (owner < 0) {
+        owner = ch;
+        wedge_local[static_cast<size_t>(wdg)] = static_cast<int>(c.wedges.size());
+        c.wedges.push_back(wdg);
+      }
+      t[static_cast<size_t>(k)] = wedge_local[static_cast<size_t>(wdg)];
+    }
+    c.faces.push_back(static_cast<int>(f));
+    c.tris.push_back(t);
+  }
+
+  for (PackChart& c : in.charts) {
+    // Grid-exact face groups: (quarter turn m, fractional translation) -> UV area.
+    std::map<std::tuple<int, long long, long long>, double> groups;
+    std::map<std::tuple<int, long long, long long>, Vec2> group_t;
+    for (size_t i = 0; i < c.faces.size(); ++i) {
+      const int f = c.faces[i];
+      Vec2 uv[3], inp[3];
+      for (int k = 0; k < 3; ++k) {
+        uv[k] = a.wedge_uv[static_cast<size_t>(a.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
+        inp[k] = ctx.mesh ? ctx.mesh->corner_texel(static_cast<size_t>(f), k) : uv[k];
+      }
+      const double area = tri_area(uv[0], uv[1], uv[2]);
+      c.uv_area += area;
+      if (area <= 0) continue;
+      for (int m = 0; m < 4; ++m) {
+        const Vec2 t = uv[0] - rotate90(inp[0], m);
+        if ((uv[1] - rotate90(inp[1], m) - t).cwiseAbs().maxCoeff() > kExactTol) continue;
+        if ((uv[2] - rotate90(inp[2], m) - t).cwiseAbs().maxCoeff() > kExactTol) continue;
+        const auto key = std::make_tuple(m, frac_key(t.x()), frac_key(t.y()));
+        groups[key] += area;
+        group_t.emplace(key, t);
+        break;
+      }
+    }
+    in.total_uv_area += c.uv_area;
+    double best = 0;
+    Vec2 best_t = Vec2::Zero();
+    for (const auto& g : groups)
+      if (g.second > best) {
+        best = g.second;
+        best_t = group_t[g.first];
+      }
+    c.exact_area = best;
+    c.exact = best > 0 && best >= s.exact_fraction * c.uv_area;
+    c.base.resize(c.wedges.size());
+    if (c.exact) {
+      c.grid_offset = Vec2(best_t.x() - std::floor(best_t.x()), best_t.y() - std::floor(best_t.y()));
+      if (frac_key(best_t.x()) == 0) c.grid_offset.x() = 0;
+      if (frac_key(best_t.y()) == 0) c.grid_offset.y() = 0;
+      for (size_t i = 0; i < c.wedges.size(); ++i)
+        c.base[i] = a.wedge_uv[static_cast<size_t>(c.wedges[i])] - c.grid_offset;
+    } else {
+      std::vector<Vec2> pts(c.wedges.size());
+      for (size_t i = 0; i < c.wedges.size(); ++i) pts[i] = a.wedge_uv[static_cast<size_t>(c.wedges[i])];
+      if (s.free_rotation && pts.size() >= 3) {
+        const OrientedRect r = min_area_rect(convex_hull(pts));
+        double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
+        for (const Vec2& p : pts) {
+          xmin = std::min(xmin, p.x());
+          xmax = std::max(xmax, p.x());
+          ymin = std::min(ymin, p.y());
+          ymax = std::max(ymax, p.y());
+        }
+        const double aabb = (xmax - xmin) * (ymax - ymin);
+        if (r.angle != 0 && aabb - r.area() > s.rotation_gain * aabb) c.angle = -r.angle;
+      }
+      for (size_t i = 0; i < c.wedges.size(); ++i) c.base[i] = c.angle != 0 ? rotate(pts[i], c.angle) : pts[i];
+    }
+    compute_boxes(c);
+  }
+  return in;
+}
+
+void check_chart_sizes(const PackInput& in, const CommonSettings& s, const std::string& stage) {
+  for (const PackChart& c : in.charts) {
+    if (c.faces.empty()) continue;
+    const bool fits0 = c.w[0] + s.gutter <= s.max_page_size && c.h[0] + s.gutter <= s.max_page_size;
+    const bool fits1 = s.allow_rotation && c.w[1] + s.gutter <= s.max_page_size && c.h[1] + s.gutter <= s.max_page_size;
+    if (!fits0 && !fits1) {
+      std::ostringstream os;
+      os << stage << ": chart " << c.id << " (" << c.faces.size() << " faces) is " << c.w[0] << " x " << c.h[0]
+         << " texels, which with the gutter of " << s.gutter << " does not fit max_page_size " << s.max_page_size;
+      throw StageError(os.str());
+    }
+  }
+}
+
+int round_page_side(int used, const CommonSettings& s) {
+  long long r = std::max(1, used);
+  if (s.power_of_two) {
+    long long p = 1;
+    while (p < r) p *= 2;
+    r = p;
+  } else {
+    r = (r + s.page_multiple - 1) / s.page_multiple * s.page_multiple;
+  }
+  return static_cast<int>(std::min<long long>(r, s.max_page_size));
+}
+
+int initial_page_width(double padded_area, int min_width, double expected_efficiency, const CommonSettings& s) {
+  const double side = std::sqrt(std::max(0.0, padded_area) / std::max(1e-3, expected_efficiency));
+  const int w = std::max(min_width, static_cast<int>(std::ceil(side)));
+  return std::min(s.max_page_size, std::max(min_width, round_page_side(w, s)));
+}
+
+std::vector<int> order_by_area(const PackInput& in, const CommonSettings& s) {
+  std::vector<int> order;
+  for (const PackChart& c : in.charts)
+    if (!c.faces.empty()) order.push_back(c.id);
+  auto area = [&](int i) {
+    const PackChart& c = in.charts[static_cast<size_t>(i)];
+    return static_cast<long long>(padded_w(c, 0, s)) * padded_h(c, 0, s);
+  };
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return area(a) > area(b); });
+  return order;
+}
+
+PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
+                           const std::function<PackResult(int width)>& pack_with_width) {
+  double padded = 0;
+  int min_width = 1;
+  for (const PackChart& c : in.charts) {
+    if (c.faces.empty()) continue;
+    padded += static_cast<double>(padded_w(c, 0, s)) * padded_h(c, 0, s);
+    int mw = s.max_page_size;
+    for (int q = 0; q < (s.allow_rotation ? 2 : 1); ++q)
+      if (padded_h(c, q, s) <= s.max_page_size && padded_w(c, q, s) <= s.max_page_size)
+        mw = std::min(mw, padded_w(c, q, s));
+    min_width = std::max(min_width, mw);
+  }
+  std::vector<int> widths;
+  const double page = static_cast<double>(s.max_page_size) * s.max_page_size;
+  if (padded >= 0.9 * page || s.width_trials <= 1) {
+    widths.push_back(padded >= 0.9 * page ? s.max_page_size : initial_page_width(padded, min_width, 0.9, s));
+  } else {
+    for (int k = 0; k < s.width_trials; ++k) {
+      const double eff = 1.0 - 0.4 * k / std::max(1, s.width_trials - 1);
+      const int w = initial_page_width(padded, min_width, eff, s);
+      if (std::find(widths.begin(), widths.end(), w) == widths.end()) widths.push_back(w);
+    }
+  }
+  PackResult best;
+  bool have = false;
+  for (int w : widths) {
+    PackResult r = pack_with_width(w);
+    size_pages(in, s, r);
+    if (!have || r.pages < best.pages || (r.pages == best.pages && r.total_area() < best.total_area())) {
+      best = std::move(r);
+      have = true;
+    }
+  }
+  return best;
+}
+
+double PackResult::total_area() const {
+  double a = 0;
+  for (const auto& p : sizes) a += static_cast<double>(p.width) * p.height;
+  return a;
+}
+
+void size_pages(const PackInput& in, const CommonSettings& s, PackResult& r) {
+  const int hi = s.gutter - s.gutter / 2;
+  std::vector<int> uw(static_cast<size_t>(r.pages), 0), uh(static_cast<size_t>(r.pages), 0);
+  for (size_t i = 0; i < in.charts.size(); ++i) {
+    const Placement& p = r.placements[i];
+    if (p.page < 0) continue;
+    const PackChart& c = in.charts[i];
+    uw[static_cast<size_t>(p.page)] = std::max(uw[static_cast<size_t>(p.page)], p.x + c.w[p.q] + hi);
+    uh[static_cast<size_t>(p.page)] = std::max(uh[static_cast<size_t>(p.page)], p.y + c.h[p.q] + hi);
+  }
+  r.sizes.resize(static_cast<size_t>(r.pages));
+  for (size_t k = 0; k < r.sizes.size(); ++k) {
+    r.sizes[k].width = round_page_side(uw[k], s);
+    r.sizes[k].height = round_page_side(uh[k], s);
+  }
+}
+
+Vec2 place_point(const PackChart& c, const Placement& p, const Vec2& b) {
+  // note: integer shift applied to an exactly rotated point, so exact charts stay on the grid.
+  return rotate90(b, p.q) + Vec2(static_cast<double>(p.x - c.ox[p.q]), static_cast<double>(p.y - c.oy[p.q]));
+}
+
+void write_layout(StageContext& ctx, const PackInput& in, const PackResult& r, double time_ms) {
+  Layout& L = ctx.layout;
+  L.pages = r.sizes;
+  L.chart_page.assign(in.charts.size(), -1);
+  L.wedge_uv.assign(in.atlas->wedge_uv.size(), Vec2::Zero());
+  size_t exact = 0, turned = 0, free_rot = 0;
+  for (size_t i = 0; i < in.charts.size(); ++i) {
+    const PackChart& c = in.charts[i];
+    const Placement& p = r.placements[i];
+    L.chart_page[i] = p.page;
+    if (c.faces.empty()) continue;
+    for (size_t k = 0; k < c.wedges.size(); ++k)
+      L.wedge_uv[static_cast<size_t>(c.wedges[k])] = place_point(c, p, c.base[k]);
+    exact += c.exact ? 1 : 0;
+    turned += p.q != 0 ? 1 : 0;
+    free_rot += c.angle != 0 ? 1 : 0;
+  }
+  if (!ctx.report) return;
+  json& rep = *ctx.report;
+  const double page_area = r.total_area();
+  rep["pages"] = r.pages;
+  json sizes = json::array();
+  for (const auto& s : r.sizes) sizes.push_back({s.width, s.height});
+  rep["page_sizes"] = sizes;
+  rep["page_megapixels"] = page_area / 1e6;
+  rep["chart_uv_area"] = in.total_uv_area;
+  rep["packing_efficiency"] = page_area > 0 ? in.total_uv_area / page_area : 0.0;
+  rep["charts"] = in.charts.size();
+  rep["charts_exact"] = exact;
+  rep["charts_turned_90"] = turned;
+  rep["charts_rotated_free"] = free_rot;
+  rep["time_ms"] = time_ms;
+}
+
+}  // namespace texdefrag::packing

@@ -1,0 +1,186 @@
+// Chart preparation, exactness anchoring and page sizing of the shared packer library.
+#include "texdefrag/packers/packing.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace texdefrag;
+using namespace texdefrag::packing;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// One chart per quad (2 triangles) given by its 4 corners; atlas only, no mesh.
+Atlas quad_atlas(const std::vector<std::array<Vec2, 4>>& quads) {
+  Atlas a;
+  for (const auto& q : quads) {
+    const int w0 = static_cast<int>(a.wedge_uv.size());
+    for (const Vec2& p : q) {
+      a.wedge_uv.push_back(p);
+      a.wedge_vertex.push_back(static_cast<int>(a.wedge_vertex.size()));
+    }
+    a.face_wedge.push_back({w0, w0 + 1, w0 + 2});
+    a.face_wedge.push_back({w0, w0 + 2, w0 + 3});
+    a.face_chart.push_back(a.num_charts);
+    a.face_chart.push_back(a.num_charts);
+    a.chart_page.push_back(0);
+    ++a.num_charts;
+  }
+  return a;
+}
+
+std::array<Vec2, 4> rect(double x, double y, double w, double h, double angle = 0) {
+  std::array<Vec2, 4> r{Vec2(0, 0), Vec2(w, 0), Vec2(w, h), Vec2(0, h)};
+  for (Vec2& p : r) {
+    const double c = std::cos(angle), s = std::sin(angle);
+    p = Vec2(c * p.x() - s * p.y() + x, s * p.x() + c * p.y() + y);
+  }
+  return r;
+}
+
+}  // namespace
+
+TEST(PackersCommon, RoundPageSide) {
+  CommonSettings s;
+  s.page_multiple = 32;
+  s.max_page_size = 100;
+  EXPECT_EQ(round_page_side(1, s), 32);
+  EXPECT_EQ(round_page_side(32, s), 32);
+  EXPECT_EQ(round_page_side(33, s), 64);
+  EXPECT_EQ(round_page_side(99, s), 100);  // capped: never beyond max_page_size
+  s.power_of_two = true;
+  EXPECT_EQ(round_page_side(33, s), 64);
+  EXPECT_EQ(round_page_side(64, s), 64);
+  EXPECT_EQ(round_page_side(0, s), 1);
+}
+
+TEST(PackersCommon, FootprintsOfAxisAlignedQuad) {
+  StageContext ctx;
+  ctx.atlas = quad_atlas({rect(10.5, 20.25, 5, 3)});
+  CommonSettings s;
+  const PackInput in = prepare_charts(ctx, s, "packers.test");
+  ASSERT_EQ(in.charts.size(), 1u);
+  const PackChart& c = in.charts[0];
+  EXPECT_TRUE(c.exact);  // no mesh: the atlas is the input, grid offset 0
+  EXPECT_EQ(c.grid_offset, Vec2(0, 0));
+  EXPECT_DOUBLE_EQ(c.uv_area, 15.0);
+  // x in [10.5, 15.5] -> cells 10..15 (6), y in [20.25, 23.25] -> cells 20..23 (4).
+  EXPECT_EQ(c.w[0], 6);
+  EXPECT_EQ(c.h[0], 4);
+  EXPECT_EQ(c.ox[0], 10);
+  EXPECT_EQ(c.oy[0], 20);
+  // Turned by 90 degrees: x = -y in [-23.25, -20.25] -> cells -24..-21 (4), y = x -> 10..15 (6).
+  EXPECT_EQ(c.w[1], 4);
+  EXPECT_EQ(c.h[1], 6);
+  EXPECT_EQ(c.ox[1], -24);
+  const Placement p{0, 100, 200, 1};
+  const Vec2 moved = place_point(c, p, c.base[0]);  // (10.5, 20.25) -> (-20.25, 10.5) + (124, 190)
+  EXPECT_EQ(moved, Vec2(103.75, 200.5));
+  const Mask m = c.raster(0);
+  int n = 0;
+  for (uint8_t v : m.cells) n += v;
+  EXPECT_EQ(n, 24);  // every cell of the box is touched by the rectangle
+}
+
+TEST(PackersCommon, FreeRotationToMinAreaRectangle) {
+  StageContext ctx;
+  ctx.atlas = quad_atlas({rect(50, 50, 40, 10, kPi / 5)});
+  TexturedMesh mesh;  // the mesh's input UVs differ (the chart was "merged"): not exact
+  CommonSettings s;
+  s.free_rotation = true;
+  s.exact_fraction = 1.0;
+  // Without a mesh every chart is exact and keeps its angle.
+  PackInput in = prepare_charts(ctx, s, "packers.test");
+  EXPECT_TRUE(in.charts[0].exact);
+  EXPECT_EQ(in.charts[0].angle, 0.0);
+  // Make it non-exact: build the same atlas against a mesh whose UVs are elsewhere (scaled).
+  mesh.pages.push_back(Page{"p", "p.png", 1000, 1000});
+  for (int f = 0; f < 2; ++f) {
+    Face fc;
+    fc.page = 0;
+    fc.vt = {3 * f, 3 * f + 1, 3 * f + 2};
+    mesh.faces.push_back(fc);
+    for (int k = 0; k < 3; ++k) {
+      const Vec2 uv = ctx.atlas.wedge_uv[static_cast<size_t>(ctx.atlas.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
+      mesh.texcoords.push_back(uv * 0.0011);  // 1.1x the atlas: no face is rigidly the input
+    }
+  }
+  ctx.mesh = &mesh;
+  in = prepare_charts(ctx, s, "packers.test");
+  const PackChart& c = in.charts[0];
+  EXPECT_FALSE(c.exact);
+  EXPECT_NEAR(c.angle, -kPi / 5, 1e-9);
+  EXPECT_LE(c.w[0] * c.h[0], 42 * 12);  // 40 x 10 after rotation, plus partial cells
+  // With free rotation off it stays axis-aligned (bigger box).
+  s.free_rotation = false;
+  in = prepare_charts(ctx, s, "packers.test");
+  EXPECT_EQ(in.charts[0].angle, 0.0);
+  EXPECT_GT(in.charts[0].w[0] * in.charts[0].h[0], 42 * 12);
+}
+
+TEST(PackersCommon, GridOffsetFromFractionalMerge) {
+  // The atlas is the input moved by (0.25, 0.5) (e.g. a merger moved the chart): the packer must
+  // undo the fraction so the input texel grid lands on the output grid.
+  StageContext ctx;
+  ctx.atlas = quad_atlas({rect(10.25, 20.5, 4, 4)});
+  TexturedMesh mesh;
+  mesh.pages.push_back(Page{"p", "p.png", 100, 100});
+  for (int f = 0; f < 2; ++f) {
+    Face fc;
+    fc.page = 0;
+    fc.vt = {3 * f, 3 * f + 1, 3 * f + 2};
+    mesh.faces.push_back(fc);
+    for (int k = 0; k < 3; ++k) {
+      const Vec2 uv = ctx.atlas.wedge_uv[static_cast<size_t>(ctx.atlas.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
+      mesh.texcoords.push_back((uv - Vec2(3.25, 1.5)) / 100.0);
+    }
+  }
+  ctx.mesh = &mesh;
+  CommonSettings s;
+  const PackInput in = prepare_charts(ctx, s, "packers.test");
+  const PackChart& c = in.charts[0];
+  EXPECT_TRUE(c.exact);
+  EXPECT_NEAR(c.grid_offset.x(), 0.25, 1e-9);
+  EXPECT_NEAR(c.grid_offset.y(), 0.5, 1e-9);
+  for (int q = 0; q < 4; ++q) {
+    const Vec2 out = place_point(c, Placement{0, 7, 9, q}, c.base[0]);
+    const Vec2 inp = mesh.corner_texel(0, 0);
+    const Vec2 t = out - rotate90(inp, q);
+    EXPECT_NEAR(t.x(), std::round(t.x()), 1e-9) << q;
+    EXPECT_NEAR(t.y(), std::round(t.y()), 1e-9) << q;
+  }
+}
+
+TEST(PackersCommon, SharedWedgeIsAnError) {
+  StageContext ctx;
+  ctx.atlas = quad_atlas({rect(0, 0, 2, 2), rect(5, 5, 2, 2)});
+  ctx.atlas.face_wedge[2][0] = 0;  // chart 1 uses a wedge of chart 0
+  CommonSettings s;
+  EXPECT_THROW(prepare_charts(ctx, s, "packers.test"), StageError);
+}
+
+TEST(PackersCommon, TooLargeChartNamesTheChart) {
+  StageContext ctx;
+  ctx.atlas = quad_atlas({rect(0, 0, 2, 2), rect(0, 0, 300, 20)});
+  CommonSettings s;
+  s.max_page_size = 128;
+  const PackInput in = prepare_charts(ctx, s, "packers.test");
+  try {
+    check_chart_sizes(in, s, "packers.test");
+    FAIL() << "expected StageError";
+  } catch (const StageError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("packers.test: chart 1"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("301 x 21"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("128"), std::string::npos) << msg;
+  }
+}
+
+TEST(PackersCommon, InitialWidthFromArea) {
+  CommonSettings s;
+  EXPECT_EQ(initial_page_width(1000.0 * 1000.0, 10, 1.0, s), 1024);
+  EXPECT_EQ(initial_page_width(100.0, 500, 1.0, s), 512);  // at least the widest chart
+  EXPECT_EQ(initial_page_width(1e12, 10, 1.0, s), 8192);   // at most max_page_size
+}

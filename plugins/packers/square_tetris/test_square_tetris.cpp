@@ -1,0 +1,105 @@
+// packers.square_tetris: created by name; invariants, hole filling, free rotation of merged charts,
+// efficiency against the other packers on building-like charts, real tiles.
+#include "pack_test_support.h"
+
+#include "texdefrag/packers/geometry.h"
+#include "texdefrag/stage/registry.h"
+
+#include <algorithm>
+
+#include <gtest/gtest.h>
+
+using namespace texdefrag;
+using namespace texdefrag::packtest;
+
+namespace {
+const std::string kName = "packers.square_tetris";
+}
+
+TEST(PackersSquareTetris, RegisteredWithCommonOptions) {
+  Registry::instance().load_plugins();
+  const StageInfo* info = Registry::instance().find(kName);
+  ASSERT_NE(info, nullptr);
+  EXPECT_EQ(info->kind, StageKind::Packer);
+  std::vector<std::string> keys;
+  for (const auto& o : info->options) keys.push_back(o.key);
+  for (const char* k : {"gutter", "max_page_size", "page_multiple", "power_of_two", "allow_rotation", "free_rotation",
+                        "rotation_gain", "exact_fraction", "width_trials"})
+    EXPECT_NE(std::find(keys.begin(), keys.end(), k), keys.end()) << k;
+}
+
+TEST(PackersSquareTetris, Invariants) { packer_invariant_suite(kName); }
+
+TEST(PackersSquareTetris, FillsEnclosedSpaces) {
+  // A tall and a short rectangle side by side leave a step; the next wide rectangle bridges the
+  // step and encloses the space above the short one, which the small squares then fill.
+  const std::vector<std::vector<Vec2>> polys = {
+      {{0, 0}, {100, 0}, {100, 200}, {0, 200}},        // 101 x 201 cells
+      {{0, 0}, {150, 0}, {150, 100}, {0, 100}},        // 151 x 101
+      {{0, 0}, {250, 0}, {250, 20}, {0, 20}},          // 251 x 21
+      {{0, 0}, {30, 0}, {30, 30}, {0, 30}},
+      {{0, 0}, {30, 0}, {30, 30}, {0, 30}},
+      {{0, 0}, {30, 0}, {30, 30}, {0, 30}},
+  };
+  auto run = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}});
+  expect_valid_layout(*run, 4);
+  EXPECT_GE(run->report.at("hole_fills").get<int>(), 1);
+}
+
+TEST(PackersSquareTetris, FreeRotationOfMergedChart) {
+  // Chart 0 was "merged": its atlas UVs are the input rotated by 0.4 rad. Square Tetris rotates it
+  // back to its minimum-area rectangle (200 x 40); the untouched chart 1 stays exact.
+  const std::vector<std::vector<Vec2>> polys = {{{100, 100}, {300, 100}, {300, 140}, {100, 140}},
+                                                {{400, 400}, {420, 400}, {420, 420}, {400, 420}}};
+  auto edit = [](Atlas& a) {
+    std::vector<uint8_t> done(a.wedge_uv.size(), 0);
+    for (size_t f = 0; f < a.face_chart.size(); ++f)
+      if (a.face_chart[f] == 0)
+        for (int w : a.face_wedge[f])
+          if (!done[static_cast<size_t>(w)]++) a.wedge_uv[static_cast<size_t>(w)] = packing::rotate(a.wedge_uv[static_cast<size_t>(w)], 0.4);
+  };
+  auto run = run_packer(kName, polygon_mesh(polys, 1024), json::object(), edit);
+  expect_valid_layout(*run, 4);
+  EXPECT_EQ(run->report.at("charts_rotated_free").get<int>(), 1);
+  EXPECT_EQ(run->report.at("charts_exact").get<int>(), 1);
+  // The rotated chart's output is axis-aligned again: its bounding box is 200 x 40 (in some order).
+  const Layout& L = run->ctx.layout;
+  double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
+  for (size_t f = 0; f < run->ctx.atlas.face_chart.size(); ++f)
+    if (run->ctx.atlas.face_chart[f] == 0)
+      for (int w : run->ctx.atlas.face_wedge[f]) {
+        const Vec2& p = L.wedge_uv[static_cast<size_t>(w)];
+        x0 = std::min(x0, p.x()); x1 = std::max(x1, p.x());
+        y0 = std::min(y0, p.y()); y1 = std::max(y1, p.y());
+      }
+  EXPECT_NEAR(std::max(x1 - x0, y1 - y0), 200.0, 1e-6);
+  EXPECT_NEAR(std::min(x1 - x0, y1 - y0), 40.0, 1e-6);
+  // Without free rotation the box stays the rotated one's (larger).
+  auto fixed = run_packer(kName, polygon_mesh(polys, 1024), {{"free_rotation", false}}, edit);
+  expect_valid_layout(*fixed, 4);
+  EXPECT_EQ(fixed->report.at("charts_rotated_free").get<int>(), 0);
+}
+
+TEST(PackersSquareTetris, BeatsTetrisAndShelfOnBuildingCharts) {
+  std::mt19937 rng(5);
+  const auto polys = building_polygons(rng, 600, 4096);
+  auto st = run_packer(kName, polygon_mesh(polys, 4096));
+  expect_valid_layout(*st, 4);
+  const double e_st = layout_efficiency(*st);
+  auto te = run_packer("packers.tetris", polygon_mesh(polys, 4096));
+  const double e_te = layout_efficiency(*te);
+  EXPECT_GE(e_st, e_te);
+  if (Registry::instance().find("packers.shelf")) {
+    auto sh = run_packer("packers.shelf", polygon_mesh(polys, 4096));
+    EXPECT_GE(e_st, layout_efficiency(*sh));
+    std::cout << "building charts: square_tetris " << e_st << " tetris " << e_te << " shelf " << layout_efficiency(*sh) << "\n";
+  }
+  RecordProperty("efficiency_square_tetris", std::to_string(e_st));
+  RecordProperty("efficiency_tetris", std::to_string(e_te));
+}
+
+TEST(PackersSquareTetris, RealTiles) {
+  const auto res = packer_real_suite(kName, 10000);
+  if (res.empty()) GTEST_SKIP() << "no real models";
+  for (const auto& r : res) std::cout << kName << " " << r.first << " efficiency " << r.second << "\n";
+}
