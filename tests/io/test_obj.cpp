@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <charconv>
 #include <cstring>
 #include <functional>
@@ -644,6 +645,10 @@ TEST(ObjWrite, RejectsInconsistentMeshesWithoutWriting) {
       {"names material 'nope', which is not in the mesh", [](TexturedMesh& m) { m.pages[1].material = "nope"; }},
       {"share material 'b'", [](TexturedMesh& m) { m.pages[0].material = "b"; }},
       {"two materials named 'plain'", [](TexturedMesh& m) { m.materials[2].name = "plain"; }},
+      {"material 1 has name ' plain' (expected non-empty", [](TexturedMesh& m) { m.materials[1].name = " plain"; }},
+      {"has extra line 'map_Kd x.png'", [](TexturedMesh& m) { m.materials[1].extra_lines.push_back("map_Kd x.png"); }},
+      {"has extra line 'Kd 1?newmtl c'", [](TexturedMesh& m) { m.materials[1].extra_lines.push_back("Kd 1\nnewmtl c"); }},
+      {"group 0 is 'roof' (expected a statement 'g NAME' or 'o NAME'", [](TexturedMesh& m) { m.groups[0] = "roof"; }},
   };
   for (const Case& c : cases) {
     TexturedMesh m = writer_mesh(dir);
@@ -682,4 +687,57 @@ TEST(WriteFileAtomic, ReplacesContentAndFailsCleanlyNamingTheFile) {
   fs::create_directories(dir + "/sub/target/inner");
   EXPECT_THROW(write_file_atomic(dir + "/sub/target", "x"), ObjError);
   EXPECT_EQ(count_temporaries(dir + "/sub"), 0);
+}
+
+// Random byte edits of a valid OBJ and MTL: each result either reads into a consistent mesh or
+// fails with an ObjError naming a file and line; nothing else (no crash, no other exception).
+TEST(ObjRead, MutatedFilesReadOrFailWithFileAndLine) {
+  const std::string dir = tt::temp_dir();
+  const std::string base_mtl = "newmtl a\nKd 1 1 1 1\nmap_Kd -bm 1 t.png\nnewmtl b\nKa 1 1 1\n";
+  const std::string base_obj =
+      "mtllib m.mtl\n# c\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n"
+      "g top\nusemtl a\nf 1/1/1 2/2/1 3/3/1 4/4/1\no x\ns 1\nusemtl b\nf -4/-4/ -3/-3/ -2/-2/\nf 1//1 2//1 3//1\nf 1 3 4\n";
+  static const char kAlphabet[] = "/ -+0123456789.e\n\r\t#fvtnsgou\0x";
+  const std::string alphabet(kAlphabet, sizeof kAlphabet - 1);  // includes a NUL byte
+  uint32_t seed = 20240601u;
+  auto next = [&seed](uint32_t n) {
+    seed = seed * 1664525u + 1013904223u;
+    return (seed >> 8) % n;
+  };
+  int ok = 0, failed = 0;
+  for (int iter = 0; iter < 400; ++iter) {
+    std::string obj = base_obj, mtl = base_mtl;
+    std::string& target = iter % 4 == 3 ? mtl : obj;
+    const int edits = 1 + static_cast<int>(next(3));
+    for (int e = 0; e < edits && !target.empty(); ++e) {
+      const size_t at = next(static_cast<uint32_t>(target.size()));
+      const char c = alphabet[next(static_cast<uint32_t>(alphabet.size()))];
+      switch (next(3)) {
+        case 0: target[at] = c; break;
+        case 1: target.erase(at, 1); break;
+        default: target.insert(target.begin() + static_cast<std::ptrdiff_t>(at), c); break;
+      }
+    }
+    write_text(dir, "m.mtl", mtl);
+    const std::string path = write_text(dir, "m.obj", obj);
+    try {
+      const TexturedMesh m = read_obj(path, no_textures());
+      ++ok;
+      for (const Face& f : m.faces)
+        for (size_t k = 0; k < 3; ++k) {
+          ASSERT_LT(static_cast<size_t>(f.v[k]), m.positions.size());
+          if (f.vt[k] != kNoIndex) { ASSERT_LT(static_cast<size_t>(f.vt[k]), m.texcoords.size()); }
+          if (f.vn[k] != kNoIndex) { ASSERT_LT(static_cast<size_t>(f.vn[k]), m.normals.size()); }
+          ASSERT_EQ(f.vt[k] == kNoIndex, f.vt[0] == kNoIndex);
+        }
+    } catch (const ObjError& e) {
+      ++failed;
+      const std::string msg = e.what();
+      const size_t colon = msg.find(".obj:") != std::string::npos ? msg.find(".obj:") + 5 : msg.find(".mtl:") + 5;
+      ASSERT_GT(colon, 5u) << msg;
+      ASSERT_TRUE(colon < msg.size() && std::isdigit(static_cast<unsigned char>(msg[colon]))) << msg;
+    }
+  }
+  EXPECT_GT(ok, 0);
+  EXPECT_GT(failed, 0);
 }

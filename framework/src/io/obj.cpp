@@ -555,6 +555,11 @@ std::string face_label(const TexturedMesh& mesh, size_t f) {
   return s;
 }
 
+/// Non-empty, one line, no leading or trailing blank: reads back as written.
+bool is_clean_name(const std::string& s) {
+  return !s.empty() && s.find_first_of("\r\n") == std::string::npos && !is_space(s.front()) && !is_space(s.back());
+}
+
 fs::path canonical_or_absolute(const fs::path& p) {
   std::error_code ec;
   fs::path c = fs::weakly_canonical(p, ec);
@@ -617,7 +622,15 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
   // Materials and pages must agree: each page names one material, at most one page per material.
   std::unordered_map<std::string, size_t> material_of_name;
   for (size_t m = 0; m < mesh.materials.size(); ++m) {
-    if (mesh.materials[m].name.empty()) throw ObjError(obj_path + ": material " + std::to_string(m) + " has no name");
+    const Material& mat = mesh.materials[m];
+    if (!is_clean_name(mat.name))
+      throw ObjError(obj_path + ": material " + std::to_string(m) + " has name " + in_quotes(mat.name) + " (expected non-empty, no line break, no leading or trailing blank)");
+    for (const std::string& l : mat.extra_lines) {
+      Line probe{l.data(), l.data() + l.size()};
+      const std::string_view kw = probe.token();
+      if (l.find_first_of("\r\n") != std::string::npos || kw == "newmtl" || kw == "map_Kd" || kw == "map_kd")
+        throw ObjError(obj_path + ": material " + in_quotes(mat.name) + " has extra line " + in_quotes(l) + " (expected one line that is not newmtl or map_Kd)");
+    }
     if (!material_of_name.emplace(mesh.materials[m].name, m).second)
       throw ObjError(obj_path + ": two materials named " + in_quotes(mesh.materials[m].name));
   }
@@ -633,13 +646,18 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
     page_of_material[it->second] = static_cast<int>(p);
   }
 
+  for (size_t g = 0; g < mesh.groups.size(); ++g) {
+    const std::string& text = mesh.groups[g];
+    if (!is_clean_name(text) || text.size() < 3 || (text[0] != 'g' && text[0] != 'o') || !is_space(text[1]))
+      throw ObjError(obj_path + ": group " + std::to_string(g) + " is " + in_quotes(text) + " (expected a statement 'g NAME' or 'o NAME' on one line)");
+  }
+
   // MTL.
   std::string m_out = "# written by texdefrag\n";
   for (size_t m = 0; m < mesh.materials.size(); ++m) {
     const Material& mat = mesh.materials[m];
     m_out += "\nnewmtl " + mat.name + "\n";
     for (const std::string& l : mat.extra_lines) {
-      if (l.find('\n') != std::string::npos) throw ObjError(obj_path + ": material " + in_quotes(mat.name) + " has a line break inside an extra line");
       m_out += l;
       m_out += '\n';
     }

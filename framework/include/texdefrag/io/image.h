@@ -23,6 +23,8 @@ struct Image {
 
 /// Reads an image (JPEG, PNG, TIFF, anything OpenImageIO reads). Deeper formats are converted to
 /// 8 bits. Throws ImageError naming the file.
+/// Channels beyond the 4th are not read. Alpha is returned as stored (not premultiplied).
+/// The first subimage / MIP level is read; EXIF orientation is not applied.
 Image read_image(const std::string& path);
 
 /// Reads only the header: width and height. Throws ImageError naming the file.
@@ -31,6 +33,10 @@ void read_image_size(const std::string& path, int& width, int& height);
 enum class ImageFormat { Png, Jpeg };
 
 /// Writes an image atomically (temporary file, then rename). jpeg_quality in [1, 100].
+/// path: must end in .png for Png, .jpg/.jpeg for Jpeg (else ImageError); its folder must exist.
+/// image: 1-4 channels, pixels.size() == width*height*channels (else ImageError). JPEG stores 1 or
+///        3 channels: the alpha of a 2- or 4-channel image is left out. PNG round-trips exactly.
+/// Throws ImageError naming `path`; on failure no file and no temporary is left.
 void write_image(const std::string& path, const Image& image, ImageFormat format, int jpeg_quality = 95);
 
 }  // namespace texdefrag
