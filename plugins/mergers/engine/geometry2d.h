@@ -1,0 +1,48 @@
+// Small 2D geometry used by the merge engine: least-squares rigid fit and segment crossing tests.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <array>
+#include <vector>
+
+namespace texdefrag::merge {
+
+/// A rigid 2D motion x -> R x + t (R a rotation, det +1).
+struct Rigid2 {
+  Eigen::Matrix2d R = Eigen::Matrix2d::Identity();
+  Eigen::Vector2d t = Eigen::Vector2d::Zero();
+  Eigen::Vector2d operator()(const Eigen::Vector2d& x) const { return R * x + t; }
+};
+
+/// Least-squares rigid motion (rotation + translation, never a reflection) taking p[i] to q[i]:
+/// argmin sum |R p_i + t - q_i|^2 (2D Kabsch; the rotation angle is atan2 of the cross/dot sums,
+/// which is the SVD solution with the determinant fixed to +1).
+/// @param p  source points (any count >= 1; with one point R is the identity)
+/// @param q  target points, same count as p
+Rigid2 fit_rigid(const std::vector<Eigen::Vector2d>& p, const std::vector<Eigen::Vector2d>& q);
+
+/// Twice the signed area of (a, b, c): > 0 when counter-clockwise.
+inline double orient2d(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c) {
+  return (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+}
+
+/// True when segments [a, b] and [c, d] cross at a single interior point of both (proper
+/// crossing). Touching at an endpoint or collinear contact is not a crossing.
+bool segments_cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c,
+                    const Eigen::Vector2d& d);
+
+/// A segment between two wedges (its endpoints' ids let callers skip adjacent segments).
+struct Segment {
+  int w0 = -1, w1 = -1;
+  Eigen::Vector2d a, b;
+};
+
+/// Whether any segment of `moved` properly crosses any segment of `all` (or another of `moved`),
+/// ignoring pairs that share a wedge id or an endpoint position (within 1e-7 of the longer length). Uniform grid over the moved
+/// segments' bounding box: O((|all| + |moved|) * segments per cell).
+/// @param moved  segments whose positions changed (tested against everything)
+/// @param all    the other segments of the same chart (may include the moved ones)
+bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>& all);
+
+}  // namespace texdefrag::merge

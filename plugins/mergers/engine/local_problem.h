@@ -1,0 +1,78 @@
+// The local UV optimisation problem a merge hands to an optimiser, and the per-triangle algebra
+// both optimisers share.
+//
+// Each triangle's rest shape is its INPUT UV triangle in texels, so the optimum keeps the input texel
+// density (Liu et al. 2024, section 2.2.3; Maggiordomo et al. 2021, section 4). The deformation
+// gradient of triangle t is F = [x1-x0, x2-x0] * Dm^-1 (Dm = rest edge matrix); it is linear in the
+// six corner coordinates: vec(F) = D * (x0, y0, x1, y1, x2, y2), vec row-major (F00, F01, F10, F11).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/LU>
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace texdefrag::merge {
+
+using Vec2 = Eigen::Vector2d;
+using Mat2 = Eigen::Matrix2d;
+using Mat46 = Eigen::Matrix<double, 4, 6>;
+
+/// A local problem: positions of the wedges it touches, the free ones first.
+struct LocalProblem {
+  /// Positions (texels). x[0, num_free) are the unknowns; the rest are pinned (constant).
+  std::vector<Vec2> x;
+  /// Number of unknown positions (x's prefix). 0 is allowed (nothing to do).
+  int num_free = 0;
+  /// Per triangle: indices into x of its three corners, in face-corner order.
+  std::vector<std::array<int, 3>> tri;
+  /// Per triangle: inverse of the rest edge matrix Dm = [r1-r0, r2-r0] (input texels).
+  std::vector<Mat2> rest_inv;
+  /// Per triangle: weight = input UV area (texels^2), > 0.
+  std::vector<double> weight;
+};
+
+/// What an optimiser did.
+struct SolveResult {
+  bool ok = true;          ///< false when it could not reach a state without inverted triangles
+  int iterations = 0;      ///< outer iterations run
+  double energy = 0;       ///< final area-weighted mean energy of the optimiser's own measure
+  std::string failure;     ///< why ok is false (one phrase), empty otherwise
+};
+
+/// A UV optimiser used by the merge engine (mergers.optcuts, mergers.arap).
+class LocalSolver {
+ public:
+  virtual ~LocalSolver() = default;
+  /// Moves the free positions of `p` (p.x[0, p.num_free)) to lower the solver's energy. Never
+  /// touches pinned positions. Returns ok = false when the result still has inverted triangles
+  /// (det F <= 0) that it could not remove; the caller then rejects the merge.
+  virtual SolveResult solve(LocalProblem& p) = 0;
+};
+
+/// The 4x6 matrix D with vec(F) = D * local corner coordinates, for a triangle with rest_inv.
+Mat46 gradient_operator(const Mat2& rest_inv);
+
+/// Deformation gradient of triangle t of p at the current positions.
+Mat2 deformation_gradient(const LocalProblem& p, size_t t);
+
+/// Signed singular values of a 2x2 matrix in closed form (s1 >= |s2|, s2 < 0 when det < 0).
+Eigen::Vector2d signed_singular_values_2x2(const Mat2& F);
+
+/// ARAP error (s1-1)^2 + (s2-1)^2 with signed singular values (core/distortion.h's measure).
+double arap_error_2x2(const Mat2& F);
+
+/// Closest rotation to F (polar decomposition, det +1 enforced).
+Mat2 closest_rotation(const Mat2& F);
+
+/// Largest t in (0, +inf] such that no triangle of p whose edge determinant is positive at t = 0
+/// reaches determinant 0 on [0, t) when the free positions move along `dir` (2*num_free values,
+/// x then y per position). +inf when no triangle can collapse. Smith & Schaefer 2015, section 4.
+double max_injective_step(const LocalProblem& p, const Eigen::VectorXd& dir);
+
+/// Number of triangles of p with det F <= 0.
+int count_inverted(const LocalProblem& p);
+
+}  // namespace texdefrag::merge

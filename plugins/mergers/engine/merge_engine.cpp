@@ -1,0 +1,864 @@
+// Seam merging with exact rollback: Liu et al. 2024, "Planar feature-preserving texture
+// defragmentation method for 3D urban building models" (Remote Sensing 16(22) 4154), section 2.2
+// (merge order, rigid alignment, weld, local optimisation within alpha * displacement, whole-seam
+// acceptance), and Maggiordomo, Cignoni, Tarini 2021, "Texture defragmentation for
+// photo-reconstructed 3D models" (the M-method's cost, refusals and acceptance tests).
+#include "merge_engine.h"
+
+#include "geometry2d.h"
+
+#include "texdefrag/core/distortion.h"
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <cmath>
+#include <numeric>
+#include <queue>
+#include <unordered_map>
+
+namespace texdefrag::merge {
+
+std::vector<OptionSpec> merge_option_specs() {
+  return {
+      opt_enum("priority", "planarity", {"planarity", "mmethod"},
+               "Merge order: 'planarity' = largest max(I_a,I_b)*max(area_a,area_b) first (Liu et al.); "
+               "'mmethod' = smallest alignment-error cost first, with the M-method's refusals and penalty doubling"),
+      opt_double("alpha", 5, "Free-region radius as a multiple of the largest weld displacement").range(0, 1000),
+      opt_double("global_bound", 0.025,
+                 "Reject a merge when the area-weighted ARAP distortion over all textured faces exceeds this")
+          .range(0, 1e6),
+      opt_double("local_bound", 0.5,
+                 "Reject a merge when the area-weighted ARAP error of its free region exceeds this")
+          .range(0, 1e6),
+      opt_int("max_merges", 100000000, "Stop after this many accepted merges").at_least(0),
+      opt_int("max_attempts", 3,
+              "Attempts per chart pair; a rejected pair is retried only after one of its charts changed")
+          .range(1, 1000),
+      opt_int("max_free_vertices", 2000, "Largest free region of one merge (nearest wedges to the seam first)")
+          .range(1, 10000000),
+  };
+}
+
+MergeOptions merge_options_from(const Options& o) {
+  MergeOptions m;
+  m.priority = o.get_string("priority") == "mmethod" ? Priority::MMethod : Priority::Planarity;
+  m.alpha = o.get_double("alpha");
+  m.global_bound = o.get_double("global_bound");
+  m.local_bound = o.get_double("local_bound");
+  m.max_merges = o.get_int("max_merges");
+  m.max_attempts = static_cast<int>(o.get_int("max_attempts"));
+  m.max_free_vertices = static_cast<int>(o.get_int("max_free_vertices"));
+  return m;
+}
+
+json MergeReport::to_json() const {
+  json j;
+  j["charts_in"] = charts_in;
+  j["charts_out"] = charts_out;
+  j["locked_charts"] = locked_charts;
+  j["candidate_pairs"] = candidates_initial;
+  j["merges_attempted"] = attempted;
+  j["merges_accepted"] = accepted;
+  json rej = json::object();
+  size_t total = 0;
+  for (const auto& [k, v] : rejected) {
+    rej[k] = v;
+    total += v;
+  }
+  j["rejected"] = rej;
+  j["rejected_total"] = total;
+  j["distortion_in"] = distortion_in;
+  j["distortion_out"] = distortion_out;
+  j["flipped_out"] = flipped_out;
+  j["optimisation_seconds"] = optimisation_seconds;
+  j["check_seconds"] = check_seconds;
+  j["mean_free_vertices"] = mean_free_vertices;
+  return j;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+struct ChartInfo {
+  bool alive = true;
+  bool locked = false;
+  int version = 0;
+  int region = -1;
+  int page = kNoPage;
+  double uv_area = 0;   ///< input UV area of its faces (texels^2): stable under optimisation
+  double border = 0;    ///< current UV border length (texels)
+  double planarity = 0; ///< cached index for the current version
+  Moments mom;
+  std::vector<int> faces;
+  std::vector<std::pair<int, int>> boundary;           ///< (face, local edge)
+  std::unordered_map<int, std::vector<int>> adj;       ///< neighbour chart -> seam edge ids
+};
+
+struct Entry {
+  double score;  ///< larger first
+  int a, b;      ///< a < b
+  int va, vb;    ///< chart versions when scored
+  int refusal;   ///< 0 none, 1 seam_too_short, 2 alignment_error
+  bool operator<(const Entry& o) const { return score < o.score; }
+};
+
+const char* kRefusal[] = {"", "seam_too_short", "alignment_error"};
+
+class Engine {
+ public:
+  Engine(const TexturedMesh& mesh, const Topology& topo, Atlas& at, const std::vector<int>& face_region,
+         const MergeOptions& opt, LocalSolver& solver)
+      : mesh_(mesh), topo_(topo), at_(at), region_(face_region), opt_(opt), solver_(solver) {}
+
+  MergeReport run(const Progress& progress);
+
+ private:
+  // ---- static data
+  void setup();
+  int corner_of(int f, int v) const {
+    const auto& fv = topo_.face_vertex[static_cast<size_t>(f)];
+    for (int i = 0; i < 3; ++i)
+      if (fv[static_cast<size_t>(i)] == v) return i;
+    return -1;
+  }
+  Vec2& uv(int w) { return at_.wedge_uv[static_cast<size_t>(w)]; }
+  int wedge(int f, int k) const { return at_.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)]; }
+  int chart(int f) const { return at_.face_chart[static_cast<size_t>(f)]; }
+  ChartInfo& C(int c) { return charts_[static_cast<size_t>(c)]; }
+  Mat2 jacobian(int f) const;
+  double weighted_err(int f) const;
+  bool is_boundary(int f, int k, int c) const;
+  double edge_uv_len(int f, int k) const;
+  template <class Fn>
+  void faces_of_wedge(int w, int c, Fn&& fn) const;
+
+  // ---- queue
+  void refresh_planarity(int c);
+  void push_pair(int a, int b);
+  double score(int a, int b, int& refusal);
+  bool candidate(int a, int b) const;
+  void pair_points(int big, int small, std::vector<std::pair<int, int>>& pairs);
+
+  // ---- one move
+  bool try_merge(int a, int b, std::string& reason);
+  void rollback();
+
+  const TexturedMesh& mesh_;
+  const Topology& topo_;
+  Atlas& at_;
+  const std::vector<int>& region_;
+  MergeOptions opt_;
+  LocalSolver& solver_;
+  MergeReport rep_;
+
+  std::vector<int> vf_off_, vf_;       ///< welded vertex -> textured faces (CSR)
+  std::vector<Mat2> rest_inv_;
+  std::vector<double> rest_w_;         ///< input UV area (0: no energy)
+  std::vector<double> err_w_;          ///< weight * ARAP error, per face, current atlas
+  double err_sum_ = 0, weight_sum_ = 0;
+  std::vector<Vec3> region_normal_;
+  std::vector<ChartInfo> charts_;
+  std::priority_queue<Entry> queue_;
+  struct PairState {
+    int attempts = 0;
+    double penalty = 1;        ///< the M-method's penalty, doubled on each rejection
+    int va = -1, vb = -1;      ///< versions of the newest queue entry of this pair
+  };
+  std::unordered_map<long long, PairState> pairs_;
+  PairState& pair_state(int a, int b) {
+    return pairs_[static_cast<long long>(std::min(a, b)) << 32 | static_cast<long long>(std::max(a, b))];
+  }
+  std::vector<double> refreshed_area_;  ///< uv_area of a chart when all its pairs were last re-pushed
+  double free_total_ = 0;
+  size_t free_count_ = 0;
+
+  // ---- per-move scratch with epoch stamps
+  int epoch_ = 0;
+  std::vector<int> wstamp_, wmoved_, wrep_, wvisit_, wdone_, fstamp_, fchanged_;
+  std::vector<double> wdist_;
+  std::vector<std::pair<int, Vec2>> saved_uv_;
+  std::vector<std::pair<int, std::array<int, 3>>> saved_fw_;
+  int saved_small_ = -1;
+  void save_uv(int w) {
+    if (wstamp_[static_cast<size_t>(w)] == epoch_) return;
+    wstamp_[static_cast<size_t>(w)] = epoch_;
+    saved_uv_.emplace_back(w, uv(w));
+  }
+};
+
+void Engine::setup() {
+  const size_t nf = mesh_.faces.size();
+  if (at_.face_chart.size() != nf || at_.face_wedge.size() != nf)
+    throw std::invalid_argument("merge engine: atlas does not match the mesh");
+  if (!region_.empty() && region_.size() != nf)
+    throw std::invalid_argument("merge engine: face_region has " + std::to_string(region_.size()) +
+                                " entries for " + std::to_string(nf) + " faces");
+  // Vertex -> faces.
+  vf_off_.assign(topo_.num_vertices() + 1, 0);
+  for (size_t f = 0; f < nf; ++f)
+    if (at_.face_chart[f] >= 0)
+      for (int v : topo_.face_vertex[f]) ++vf_off_[static_cast<size_t>(v) + 1];
+  std::partial_sum(vf_off_.begin(), vf_off_.end(), vf_off_.begin());
+  vf_.assign(static_cast<size_t>(vf_off_.back()), 0);
+  std::vector<int> fill(vf_off_.begin(), vf_off_.end() - 1);
+  for (size_t f = 0; f < nf; ++f)
+    if (at_.face_chart[f] >= 0)
+      for (int v : topo_.face_vertex[f]) {
+        // note: a degenerate face lists a vertex twice; keep one entry.
+        const size_t s = static_cast<size_t>(vf_off_[static_cast<size_t>(v)]);
+        const size_t e = static_cast<size_t>(fill[static_cast<size_t>(v)]);
+        if (e > s && vf_[e - 1] == static_cast<int>(f)) continue;
+        vf_[e] = static_cast<int>(f);
+        ++fill[static_cast<size_t>(v)];
+      }
+  // Rest shapes.
+  rest_inv_.assign(nf, Mat2::Identity());
+  rest_w_.assign(nf, 0);
+  err_w_.assign(nf, 0);
+  for (size_t f = 0; f < nf; ++f) {
+    if (at_.face_chart[f] < 0) continue;
+    Mat2 Dm;
+    Dm.col(0) = mesh_.corner_texel(f, 1) - mesh_.corner_texel(f, 0);
+    Dm.col(1) = mesh_.corner_texel(f, 2) - mesh_.corner_texel(f, 0);
+    const double det = Dm.determinant();
+    if (det == 0 || !std::isfinite(det) || topo_.face_degenerate[f]) continue;
+    rest_inv_[f] = Dm.inverse();
+    rest_w_[f] = 0.5 * std::abs(det);
+    weight_sum_ += rest_w_[f];
+  }
+  for (size_t f = 0; f < nf; ++f) {
+    if (rest_w_[f] == 0) continue;
+    err_w_[f] = weighted_err(static_cast<int>(f));
+    err_sum_ += err_w_[f];
+  }
+  rep_.distortion_in = weight_sum_ > 0 ? err_sum_ / weight_sum_ : 0;
+
+  // Charts.
+  const int nc = at_.num_charts;
+  rep_.charts_in = static_cast<size_t>(nc);
+  charts_.assign(static_cast<size_t>(nc), {});
+  Vec3 origin = Vec3::Zero();
+  if (!mesh_.positions.empty()) {
+    for (const Vec3& p : mesh_.positions) origin += p;
+    origin /= static_cast<double>(mesh_.positions.size());
+  }
+  int nregions = 1;
+  for (int r : region_) nregions = std::max(nregions, r + 1);
+  std::vector<Moments> rmom(static_cast<size_t>(nregions));
+  std::vector<std::map<int, int>> votes(static_cast<size_t>(nc));
+  for (size_t f = 0; f < nf; ++f) {
+    const int c = at_.face_chart[f];
+    if (c < 0) continue;
+    ChartInfo& ch = C(c);
+    ch.page = at_.chart_page[static_cast<size_t>(c)];
+    ch.faces.push_back(static_cast<int>(f));
+    ch.uv_area += rest_w_[f];
+    if (topo_.face_degenerate[f]) ch.locked = true;
+    Moments m;
+    m.add_triangle(mesh_.corner_position(f, 0) - origin, mesh_.corner_position(f, 1) - origin,
+                   mesh_.corner_position(f, 2) - origin);
+    ch.mom.add(m);
+    const int r = region_.empty() ? 0 : region_[f];
+    if (r >= 0) {
+      ++votes[static_cast<size_t>(c)][r];
+      rmom[static_cast<size_t>(r)].add(m);
+    }
+    for (int k = 0; k < 3; ++k)
+      if (is_boundary(static_cast<int>(f), k, c)) {
+        ch.boundary.emplace_back(static_cast<int>(f), k);
+        ch.border += edge_uv_len(static_cast<int>(f), k);
+      }
+  }
+  region_normal_.assign(static_cast<size_t>(nregions), Vec3::Zero());
+  for (size_t r = 0; r < rmom.size(); ++r) {
+    Eigen::Vector3d ev;
+    rmom[r].plane(ev, region_normal_[r]);
+  }
+  for (int c = 0; c < nc; ++c) {
+    ChartInfo& ch = C(c);
+    int best = -1, bestn = 0;
+    for (const auto& [r, n] : votes[static_cast<size_t>(c)])
+      if (n > bestn) {
+        best = r;
+        bestn = n;
+      }
+    ch.region = best;
+    if (ch.locked) ++rep_.locked_charts;
+    refresh_planarity(c);
+  }
+  // Seam edges: manifold, two textured non-degenerate faces in different charts.
+  for (size_t ei = 0; ei < topo_.edges.size(); ++ei) {
+    const Edge& e = topo_.edges[ei];
+    if (e.num_faces != 2 || e.a == e.b) continue;
+    const EdgeIncidence& x = topo_.edge_faces[static_cast<size_t>(e.first_incidence)];
+    const EdgeIncidence& y = topo_.edge_faces[static_cast<size_t>(e.first_incidence + 1)];
+    const int ca = chart(x.face), cb = chart(y.face);
+    if (ca < 0 || cb < 0 || ca == cb) continue;
+    if (topo_.face_degenerate[static_cast<size_t>(x.face)] || topo_.face_degenerate[static_cast<size_t>(y.face)])
+      continue;
+    C(ca).adj[cb].push_back(static_cast<int>(ei));
+    C(cb).adj[ca].push_back(static_cast<int>(ei));
+  }
+  wstamp_.assign(at_.wedge_uv.size(), 0);
+  wmoved_.assign(at_.wedge_uv.size(), 0);
+  wdist_.assign(at_.wedge_uv.size(), 0);
+  wvisit_.assign(at_.wedge_uv.size(), 0);
+  wrep_.assign(at_.wedge_uv.size(), 0);
+  wdone_.assign(at_.wedge_uv.size(), 0);
+  fstamp_.assign(nf, 0);
+  fchanged_.assign(nf, 0);
+}
+
+Mat2 Engine::jacobian(int f) const {
+  Mat2 B;
+  const Vec2& a = at_.wedge_uv[static_cast<size_t>(wedge(f, 0))];
+  B.col(0) = at_.wedge_uv[static_cast<size_t>(wedge(f, 1))] - a;
+  B.col(1) = at_.wedge_uv[static_cast<size_t>(wedge(f, 2))] - a;
+  return B * rest_inv_[static_cast<size_t>(f)];
+}
+
+double Engine::weighted_err(int f) const {
+  const double w = rest_w_[static_cast<size_t>(f)];
+  return w == 0 ? 0.0 : w * arap_error_2x2(jacobian(f));
+}
+
+bool Engine::is_boundary(int f, int k, int c) const {
+  const Edge& e = topo_.edges[static_cast<size_t>(topo_.face_edge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
+  const int w0 = wedge(f, k), w1 = wedge(f, (k + 1) % 3);
+  for (int i = 0; i < e.num_faces; ++i) {
+    const EdgeIncidence& in = topo_.edge_faces[static_cast<size_t>(e.first_incidence + i)];
+    if (in.face == f || chart(in.face) != c) continue;
+    const int g0 = wedge(in.face, in.local), g1 = wedge(in.face, (in.local + 1) % 3);
+    if ((w0 == g0 && w1 == g1) || (w0 == g1 && w1 == g0)) return false;
+  }
+  return true;
+}
+
+double Engine::edge_uv_len(int f, int k) const {
+  return (at_.wedge_uv[static_cast<size_t>(wedge(f, k))] - at_.wedge_uv[static_cast<size_t>(wedge(f, (k + 1) % 3))]).norm();
+}
+
+template <class Fn>
+void Engine::faces_of_wedge(int w, int c, Fn&& fn) const {
+  const int v = at_.wedge_vertex[static_cast<size_t>(w)];
+  for (int i = vf_off_[static_cast<size_t>(v)]; i < vf_off_[static_cast<size_t>(v) + 1]; ++i) {
+    const int f = vf_[static_cast<size_t>(i)];
+    if (chart(f) != c) continue;
+    for (int k = 0; k < 3; ++k)
+      if (wedge(f, k) == w) {
+        fn(f, k);
+        break;
+      }
+  }
+}
+
+void Engine::refresh_planarity(int c) {
+  ChartInfo& ch = C(c);
+  Eigen::Vector3d ev, n;
+  ch.mom.plane(ev, n);
+  const Vec3 rn = ch.region >= 0 ? region_normal_[static_cast<size_t>(ch.region)] : Vec3::Zero();
+  ch.planarity = ch.mom.area > 0 ? planarity_index(ev, n, rn, opt_.weights) : 0.0;
+}
+
+bool Engine::candidate(int a, int b) const {
+  const ChartInfo& A = charts_[static_cast<size_t>(a)];
+  const ChartInfo& B = charts_[static_cast<size_t>(b)];
+  return a != b && A.alive && B.alive && !A.locked && !B.locked && A.page == B.page && A.region >= 0 &&
+         A.region == B.region;
+}
+
+void Engine::pair_points(int big, int small, std::vector<std::pair<int, int>>& pairs) {
+  pairs.clear();
+  for (int ei : C(big).adj[small]) {
+    const Edge& e = topo_.edges[static_cast<size_t>(ei)];
+    EdgeIncidence x = topo_.edge_faces[static_cast<size_t>(e.first_incidence)];
+    EdgeIncidence y = topo_.edge_faces[static_cast<size_t>(e.first_incidence + 1)];
+    if (chart(x.face) != big) std::swap(x, y);
+    for (int v : {e.a, e.b}) {
+      const int kf = corner_of(x.face, v), kg = corner_of(y.face, v);
+      pairs.emplace_back(wedge(x.face, kf), wedge(y.face, kg));
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+}
+
+double Engine::score(int a, int b, int& refusal) {
+  ChartInfo& A = C(a);
+  ChartInfo& B = C(b);
+  refusal = 0;
+  if (opt_.priority == Priority::Planarity)
+    return std::max(A.planarity, B.planarity) * std::max(A.uv_area, B.uv_area);
+  // M-method cost: err * min(B_a/L_a, B_b/L_b) * min(area_a, area_b) * penalty, smaller first.
+  const int big = A.uv_area >= B.uv_area ? a : b, small = big == a ? b : a;
+  std::vector<std::pair<int, int>> pairs;
+  pair_points(big, small, pairs);
+  std::vector<Vec2> p, q;
+  for (const auto& [wb, ws] : pairs) {
+    q.push_back(uv(wb));
+    p.push_back(uv(ws));
+  }
+  const Rigid2 m = fit_rigid(p, q);
+  double err = 0;
+  for (size_t i = 0; i < p.size(); ++i) err += (m(p[i]) - q[i]).norm();
+  err /= static_cast<double>(std::max<size_t>(1, p.size()));
+  double la = 0, lb = 0;
+  size_t nedges = 0;
+  for (int ei : A.adj[b]) {
+    const Edge& ed = topo_.edges[static_cast<size_t>(ei)];
+    for (int i = 0; i < 2; ++i) {
+      const EdgeIncidence& in = topo_.edge_faces[static_cast<size_t>(ed.first_incidence + i)];
+      (chart(in.face) == a ? la : lb) += edge_uv_len(in.face, in.local);
+    }
+    ++nedges;
+  }
+  const double ra = la > 0 ? A.border / la : 1e30, rb = lb > 0 ? B.border / lb : 1e30;
+  const double cost = err * std::min(ra, rb) * std::min(A.uv_area, B.uv_area) * pair_state(a, b).penalty;
+  const double mean_seam = nedges ? 0.5 * (la + lb) / static_cast<double>(nedges) : 0;
+  if (la < 0.2 * A.border && lb < 0.2 * B.border)
+    refusal = 1;
+  else if (err > 2 * mean_seam)
+    refusal = 2;
+  return -cost;
+}
+
+void Engine::push_pair(int a, int b) {
+  if (a > b) std::swap(a, b);
+  if (!candidate(a, b)) return;
+  PairState& ps = pair_state(a, b);
+  if (ps.attempts >= opt_.max_attempts) return;
+  if (ps.va == C(a).version && ps.vb == C(b).version) return;  // its newest entry is current
+  Entry e{0, a, b, C(a).version, C(b).version, 0};
+  e.score = score(a, b, e.refusal);
+  ps.va = e.va;
+  ps.vb = e.vb;
+  queue_.push(e);
+}
+
+void Engine::rollback() {
+  for (auto it = saved_uv_.rbegin(); it != saved_uv_.rend(); ++it) uv(it->first) = it->second;
+  for (auto it = saved_fw_.rbegin(); it != saved_fw_.rend(); ++it)
+    at_.face_wedge[static_cast<size_t>(it->first)] = it->second;
+  for (int f : C(saved_small_).faces) at_.face_chart[static_cast<size_t>(f)] = saved_small_;
+}
+
+bool Engine::try_merge(int a, int b, std::string& reason) {
+  ++epoch_;
+  ++rep_.attempted;
+  saved_uv_.clear();
+  saved_fw_.clear();
+  const int big = C(a).uv_area >= C(b).uv_area ? a : b, small = big == a ? b : a;
+  ChartInfo& Bg = C(big);
+  ChartInfo& Sm = C(small);
+  saved_small_ = small;
+  std::vector<std::pair<int, int>> pairs;
+  pair_points(big, small, pairs);
+  std::vector<int> seam_edges = Bg.adj[small];
+
+  // 1. Rigid alignment of the smaller chart.
+  std::vector<Vec2> p, q;
+  for (const auto& [wb, ws] : pairs) {
+    q.push_back(uv(wb));
+    p.push_back(uv(ws));
+  }
+  const Rigid2 m = fit_rigid(p, q);
+  std::vector<int> small_wedges;
+  for (int f : Sm.faces)
+    for (int k = 0; k < 3; ++k) {
+      const int w = wedge(f, k);
+      if (wstamp_[static_cast<size_t>(w)] == epoch_) continue;
+      save_uv(w);
+      small_wedges.push_back(w);
+      wmoved_[static_cast<size_t>(w)] = epoch_;
+      uv(w) = m(uv(w));
+    }
+
+  // 2. Weld: union the pairs, each group to its mean; representative = a wedge of the bigger chart.
+  std::unordered_map<int, int> parent;
+  auto find = [&](int x) {
+    auto it = parent.find(x);
+    if (it == parent.end()) {
+      parent[x] = x;
+      return x;
+    }
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (const auto& [wb, ws] : pairs) {
+    const int rb = find(wb), rs = find(ws);
+    if (rb != rs) parent[std::max(rb, rs)] = std::min(rb, rs);
+  }
+  std::unordered_map<int, std::vector<int>> groups;
+  for (const auto& [w, par] : parent) {
+    (void)par;
+    groups[find(w)].push_back(w);
+  }
+  std::unordered_map<int, int> rep_of;
+  std::vector<int> reps;
+  double dmax = 0;
+  std::unordered_map<int, char> is_big;
+  for (const auto& pr : pairs) is_big[pr.first] = 1;
+  for (auto& [root, members] : groups) {
+    (void)root;
+    std::sort(members.begin(), members.end());
+    // Representative: the smallest wedge of the bigger chart in the group.
+    int r = -1;
+    for (int w : members)
+      if (is_big.count(w)) {
+        r = w;
+        break;
+      }
+    Vec2 mean = Vec2::Zero();
+    for (int w : members) mean += uv(w);
+    mean /= static_cast<double>(members.size());
+    for (int w : members) {
+      dmax = std::max(dmax, (uv(w) - mean).norm());
+      save_uv(w);
+      wmoved_[static_cast<size_t>(w)] = epoch_;
+      uv(w) = mean;
+      rep_of[w] = r;
+    }
+    reps.push_back(r);
+    wrep_[static_cast<size_t>(r)] = epoch_;
+  }
+  // Repoint corners of both charts at the welded vertices.
+  for (const auto& [root, members] : groups) {
+    (void)root;
+    const int v = at_.wedge_vertex[static_cast<size_t>(members.front())];
+    for (int i = vf_off_[static_cast<size_t>(v)]; i < vf_off_[static_cast<size_t>(v) + 1]; ++i) {
+      const int f = vf_[static_cast<size_t>(i)];
+      const int c = chart(f);
+      if (c != big && c != small) continue;
+      for (int k = 0; k < 3; ++k) {
+        auto it = rep_of.find(wedge(f, k));
+        if (it == rep_of.end() || it->second == wedge(f, k)) continue;
+        if (fstamp_[static_cast<size_t>(f)] != epoch_) {
+          fstamp_[static_cast<size_t>(f)] = epoch_;
+          saved_fw_.emplace_back(f, at_.face_wedge[static_cast<size_t>(f)]);
+        }
+        at_.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)] = it->second;
+      }
+    }
+  }
+  for (int f : Sm.faces) at_.face_chart[static_cast<size_t>(f)] = big;
+
+  // Seam folds: the two faces of a welded edge must lie on opposite sides of it.
+  auto folded = [&](int ei) {
+    const Edge& e = topo_.edges[static_cast<size_t>(ei)];
+    double s[2];
+    for (int i = 0; i < 2; ++i) {
+      const EdgeIncidence& in = topo_.edge_faces[static_cast<size_t>(e.first_incidence + i)];
+      const int f = in.face, k = in.local;
+      s[i] = orient2d(uv(wedge(f, 0)), uv(wedge(f, 1)), uv(wedge(f, 2)));
+      // Same-sidedness of the opposite corners <=> equal orientation along opposite traversal.
+      const bool forward = topo_.face_vertex[static_cast<size_t>(f)][static_cast<size_t>(k)] == e.a;
+      if (!forward) s[i] = -s[i];
+    }
+    // Traversed a->b, face 0's third corner is on side sign(s0); face 1's on side sign(s1).
+    return !(s[0] * s[1] < 0);
+  };
+  size_t nfold = 0;
+  for (int ei : seam_edges) nfold += folded(ei) ? 1 : 0;
+  if (2 * nfold > seam_edges.size()) {
+    reason = "orientation";
+    rollback();
+    return false;
+  }
+
+  // 3. Free region: Dijkstra over UV edge lengths from the welded wedges, radius alpha * dmax.
+  const double radius = opt_.alpha * dmax;
+  std::vector<int> free_w;
+  {
+    using QE = std::pair<double, int>;
+    std::priority_queue<QE, std::vector<QE>, std::greater<QE>> pq;
+    auto dist = [&](int w) -> double& {
+      if (wvisit_[static_cast<size_t>(w)] != epoch_) {
+        wvisit_[static_cast<size_t>(w)] = epoch_;
+        wdist_[static_cast<size_t>(w)] = std::numeric_limits<double>::infinity();
+      }
+      return wdist_[static_cast<size_t>(w)];
+    };
+    for (int r : reps) {
+      dist(r) = 0;
+      pq.emplace(0.0, r);
+    }
+    while (!pq.empty() && static_cast<int>(free_w.size()) < opt_.max_free_vertices) {
+      const auto [d, w] = pq.top();
+      pq.pop();
+      if (wdone_[static_cast<size_t>(w)] == epoch_ || d > dist(w)) continue;
+      wdone_[static_cast<size_t>(w)] = epoch_;
+      if (d > radius) break;
+      bool pinned = false;
+      faces_of_wedge(w, big, [&](int f, int) {
+        if (rest_w_[static_cast<size_t>(f)] == 0) pinned = true;
+      });
+      if (pinned) continue;
+      free_w.push_back(w);
+      faces_of_wedge(w, big, [&](int f, int k) {
+        for (int j = 1; j < 3; ++j) {
+          const int u = wedge(f, (k + j) % 3);
+          const double nd = d + (uv(u) - uv(w)).norm();
+          if (nd < dist(u)) {
+            dist(u) = nd;
+            pq.emplace(nd, u);
+          }
+        }
+      });
+    }
+  }
+
+  // 4. Build and solve the local problem.
+  LocalProblem lp;
+  std::unordered_map<int, int> local;
+  for (int w : free_w) {
+    local[w] = static_cast<int>(lp.x.size());
+    lp.x.push_back(uv(w));
+  }
+  lp.num_free = static_cast<int>(lp.x.size());
+  std::vector<int> prob_faces;
+  for (int w : free_w)
+    faces_of_wedge(w, big, [&](int f, int) {
+      if (fchanged_[static_cast<size_t>(f)] == epoch_) return;
+      fchanged_[static_cast<size_t>(f)] = epoch_;
+      prob_faces.push_back(f);
+    });
+  for (int f : prob_faces)
+    for (int k = 0; k < 3; ++k)
+      if (!local.count(wedge(f, k))) {
+        local[wedge(f, k)] = static_cast<int>(lp.x.size());
+        lp.x.push_back(uv(wedge(f, k)));
+      }
+  if (lp.num_free > 0 && static_cast<int>(lp.x.size()) == lp.num_free) {
+    // The whole chart is free: pin the farthest free wedge so rigid motions are fixed.
+    --lp.num_free;
+  }
+  for (int f : prob_faces) {
+    lp.tri.push_back({local[wedge(f, 0)], local[wedge(f, 1)], local[wedge(f, 2)]});
+    lp.rest_inv.push_back(rest_inv_[static_cast<size_t>(f)]);
+    lp.weight.push_back(rest_w_[static_cast<size_t>(f)]);
+  }
+  free_total_ += lp.num_free;
+  ++free_count_;
+  const auto t0 = Clock::now();
+  const SolveResult sr = solver_.solve(lp);
+  rep_.optimisation_seconds += seconds_since(t0);
+  for (int i = 0; i < lp.num_free; ++i) {
+    const int w = free_w[static_cast<size_t>(i)];
+    save_uv(w);
+    wmoved_[static_cast<size_t>(w)] = epoch_;
+    uv(w) = lp.x[static_cast<size_t>(i)];
+  }
+  const auto t1 = Clock::now();
+  struct CheckTimer {
+    double& acc;
+    Clock::time_point t;
+    ~CheckTimer() { acc += seconds_since(t); }
+  } timer{rep_.check_seconds, t1};
+
+  // 5. Acceptance tests, cheapest first.
+  // Faces whose shape changed (beyond the rigid motion): those around moved seam/free wedges.
+  std::vector<int> changed = prob_faces;
+  for (int r : reps)
+    faces_of_wedge(r, big, [&](int f, int) {
+      if (fchanged_[static_cast<size_t>(f)] == epoch_) return;
+      fchanged_[static_cast<size_t>(f)] = epoch_;
+      changed.push_back(f);
+    });
+  if (!sr.ok) {
+    reason = "flip";
+    rollback();
+    return false;
+  }
+  for (int f : changed)
+    if (rest_w_[static_cast<size_t>(f)] > 0 && jacobian(f).determinant() <= 0) {
+      reason = "flip";
+      rollback();
+      return false;
+    }
+  for (int ei : seam_edges)
+    if (folded(ei)) {
+      reason = "fold";
+      rollback();
+      return false;
+    }
+  std::vector<double> new_err(changed.size());
+  double delta = 0, lsum = 0, lw = 0;
+  for (size_t i = 0; i < changed.size(); ++i) {
+    const int f = changed[i];
+    new_err[i] = weighted_err(f);
+    delta += new_err[i] - err_w_[static_cast<size_t>(f)];
+    lsum += new_err[i];
+    lw += rest_w_[static_cast<size_t>(f)];
+  }
+  if (lw > 0 && lsum / lw > opt_.local_bound) {
+    reason = "local_distortion";
+    rollback();
+    return false;
+  }
+  const double new_sum = err_sum_ + delta;
+  if (weight_sum_ > 0 && new_sum / weight_sum_ > opt_.global_bound) {
+    reason = "global_distortion";
+    rollback();
+    return false;
+  }
+  // Self-overlap of the merged chart: moved boundary segments against all its boundary segments.
+  std::vector<std::pair<int, int>> boundary;
+  boundary.reserve(Bg.boundary.size() + Sm.boundary.size());
+  for (const auto* list : {&Bg.boundary, &Sm.boundary})
+    for (const auto& fk : *list)
+      if ((wrep_[static_cast<size_t>(wedge(fk.first, fk.second))] != epoch_ &&
+           wrep_[static_cast<size_t>(wedge(fk.first, (fk.second + 1) % 3))] != epoch_) ||
+          is_boundary(fk.first, fk.second, big))
+        boundary.push_back(fk);
+  std::vector<Segment> all, moved;
+  all.reserve(boundary.size());
+  for (const auto& [f, k] : boundary) {
+    Segment s;
+    s.w0 = wedge(f, k);
+    s.w1 = wedge(f, (k + 1) % 3);
+    s.a = uv(s.w0);
+    s.b = uv(s.w1);
+    if (wmoved_[static_cast<size_t>(s.w0)] == epoch_ || wmoved_[static_cast<size_t>(s.w1)] == epoch_)
+      moved.push_back(s);
+    else
+      all.push_back(s);
+  }
+  if (any_crossing(moved, all)) {
+    reason = "overlap";
+    rollback();
+    return false;
+  }
+
+  // Accept: commit distortion, chart data and adjacency.
+  for (size_t i = 0; i < changed.size(); ++i) err_w_[static_cast<size_t>(changed[i])] = new_err[i];
+  err_sum_ = new_sum;
+  Bg.faces.insert(Bg.faces.end(), Sm.faces.begin(), Sm.faces.end());
+  Sm.faces.clear();
+  Sm.faces.shrink_to_fit();
+  Bg.boundary.swap(boundary);
+  Sm.boundary.clear();
+  if (opt_.priority == Priority::MMethod) {  // the border length is used by its cost only
+    Bg.border = 0;
+    for (const auto& [f, k] : Bg.boundary) Bg.border += edge_uv_len(f, k);
+  }
+  Bg.mom.add(Sm.mom);
+  Bg.uv_area += Sm.uv_area;
+  Sm.alive = false;
+  ++Sm.version;
+  ++Bg.version;
+  Bg.adj.erase(small);
+  for (auto& [c, edges] : Sm.adj) {
+    if (c == big) continue;
+    auto& to = Bg.adj[c];
+    to.insert(to.end(), edges.begin(), edges.end());
+    auto& back = C(c).adj;
+    auto& tb = back[big];
+    tb.insert(tb.end(), edges.begin(), edges.end());
+    back.erase(small);
+  }
+  Sm.adj.clear();
+  refresh_planarity(big);
+  return true;
+}
+
+MergeReport Engine::run(const Progress& progress) {
+  setup();
+  for (int c = 0; c < at_.num_charts; ++c)
+    for (const auto& [n, edges] : C(c).adj)
+      if (c < n && candidate(c, n)) {
+        ++rep_.candidates_initial;
+        push_pair(c, n);
+      }
+  refreshed_area_.resize(charts_.size());
+  for (size_t c = 0; c < charts_.size(); ++c) refreshed_area_[c] = charts_[c].uv_area;
+  size_t popped = 0;
+  while (!queue_.empty() && static_cast<long long>(rep_.accepted) < opt_.max_merges) {
+    const Entry e = queue_.top();
+    queue_.pop();
+    if ((++popped & 255) == 0 && progress)
+      progress(static_cast<double>(popped) / static_cast<double>(popped + queue_.size()));
+    if (!C(e.a).alive || !C(e.b).alive) continue;
+    if (C(e.a).version != e.va || C(e.b).version != e.vb) {
+      // note: lazy refresh: a stale entry is re-scored and queued again (once per version pair).
+      push_pair(e.a, e.b);
+      continue;
+    }
+    PairState& ps = pair_state(e.a, e.b);
+    if (ps.attempts >= opt_.max_attempts) continue;
+    ++ps.attempts;
+    if (e.refusal) {
+      ++rep_.rejected[kRefusal[e.refusal]];
+      continue;
+    }
+    std::string reason;
+    // note: take the small chart's neighbour list before the merge consumes it.
+    const int big0 = C(e.a).uv_area >= C(e.b).uv_area ? e.a : e.b, small0 = big0 == e.a ? e.b : e.a;
+    std::vector<int> fresh;
+    for (const auto& [n, edges] : C(small0).adj)
+      if (n != big0 && !C(big0).adj.count(n)) fresh.push_back(n);
+    if (try_merge(e.a, e.b, reason)) {
+      ++rep_.accepted;
+      const int big = big0;
+      ChartInfo& B = C(big);
+      // Re-queue every pair of the merged chart when its area grew by a quarter since the last
+      // full refresh (scores move little before that; stale entries are re-scored when popped);
+      // always queue the pairs it inherited from the absorbed chart.
+      if (B.uv_area > 1.25 * refreshed_area_[static_cast<size_t>(big)] || opt_.priority == Priority::MMethod) {
+        refreshed_area_[static_cast<size_t>(big)] = B.uv_area;
+        std::vector<int> nb;
+        for (const auto& [n, edges] : B.adj) nb.push_back(n);
+        for (int n : nb) push_pair(big, n);
+      } else {
+        for (int n : fresh) push_pair(big, n);
+      }
+    } else {
+      ++rep_.rejected[reason];
+      ps.penalty *= 2;  // the M-method's penalty (used by its cost only)
+    }
+  }
+  if (progress) progress(1.0);
+  rep_.mean_free_vertices = free_count_ ? free_total_ / static_cast<double>(free_count_) : 0;
+  rep_.charts_out = static_cast<size_t>(at_.compact());
+  const DistortionSummary ds = atlas_distortion(mesh_, at_);
+  rep_.distortion_out = ds.arap;
+  rep_.flipped_out = ds.flipped;
+  return rep_;
+}
+
+}  // namespace
+
+MergeReport run_merges(const TexturedMesh& mesh, const Topology& topo, Atlas& atlas, const std::vector<int>& face_region,
+                       const MergeOptions& opt, LocalSolver& solver, const Progress& progress) {
+  Engine e(mesh, topo, atlas, face_region, opt, solver);
+  return e.run(progress);
+}
+
+void run_merge_stage(StageContext& ctx, const std::string& stage, const MergeOptions& opt, LocalSolver& solver) {
+  if (!ctx.mesh || !ctx.topology) throw StageError(stage + ": the context has no mesh or topology");
+  const TexturedMesh& mesh = *ctx.mesh;
+  if (ctx.atlas.face_chart.size() != mesh.faces.size())
+    throw StageError(stage + ": the atlas has " + std::to_string(ctx.atlas.face_chart.size()) + " faces, the mesh " +
+                     std::to_string(mesh.faces.size()));
+  const auto& fr = ctx.regions.face_region;
+  if (!fr.empty() && fr.size() != mesh.faces.size())
+    throw StageError(stage + ": the detector's regions cover " + std::to_string(fr.size()) + " faces, the mesh has " +
+                     std::to_string(mesh.faces.size()));
+  for (size_t f = 0; f < fr.size(); ++f)
+    if (fr[f] >= ctx.regions.num_regions)
+      throw StageError(stage + ": face " + std::to_string(f) + " has region " + std::to_string(fr[f]) +
+                       " outside [0, " + std::to_string(ctx.regions.num_regions) + ")");
+  for (size_t p = 0; p < mesh.pages.size(); ++p)
+    if (mesh.pages[p].width <= 0 || mesh.pages[p].height <= 0)
+      throw StageError(stage + ": page " + std::to_string(p) + " has no known size");
+  const MergeReport r =
+      run_merges(mesh, *ctx.topology, ctx.atlas, fr, opt, solver, [&](double f) { ctx.step(stage, f); });
+  if (ctx.report) {
+    json j = r.to_json();
+    for (auto it = j.begin(); it != j.end(); ++it) (*ctx.report)[it.key()] = it.value();
+  }
+}
+
+}  // namespace texdefrag::merge

@@ -1,0 +1,93 @@
+// The seam-merging engine shared by mergers.optcuts and mergers.arap (Liu et al. 2024, section 2.2;
+// Maggiordomo et al. 2021 for the M-method's cost and acceptance tests). docs/mergers.md describes
+// every rule; in short:
+// - candidates: chart pairs sharing seam edges (manifold edges between two textured faces whose
+//   corners do not share wedges), both charts on the same input page and in the same region (a
+//   chart's region is the majority region of its faces); charts with a degenerate face are locked.
+// - order: a max-priority queue on X = max(I_a, I_b) * max(UVArea_a, UVArea_b) (planarity), or the
+//   M-method's cost (smallest first); stale entries are skipped via per-chart version stamps.
+// - one move: rigid least-squares fit of the smaller chart onto the bigger over the seam's wedge
+//   pairs, weld each pair at its midpoint, free the wedges within alpha * (largest weld
+//   displacement) of the seam (Dijkstra over UV edge lengths in the merged chart), optimise them
+//   against the input UV triangles with the LocalSolver, then accept or roll back exactly.
+#pragma once
+
+#include "local_problem.h"
+#include "planarity.h"
+
+#include "texdefrag/core/charts.h"
+#include "texdefrag/core/mesh.h"
+#include "texdefrag/core/topology.h"
+#include "texdefrag/stage/options.h"
+#include "texdefrag/stage/stage.h"
+
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace texdefrag::merge {
+
+enum class Priority {
+  Planarity,  ///< Liu et al.: largest max(I_a, I_b) * max(area_a, area_b) first
+  MMethod,    ///< Maggiordomo et al.: smallest err * min(B/L) * min(area) * penalty first, with refusals
+};
+
+struct MergeOptions {
+  Priority priority = Priority::Planarity;  ///< merge order
+  double alpha = 5;             ///< free-region radius as a multiple of the largest weld displacement
+  double global_bound = 0.025;  ///< reject when the global area-weighted ARAP distortion exceeds this
+  double local_bound = 0.5;     ///< reject when the free region's area-weighted ARAP error exceeds this
+  long long max_merges = 100000000;  ///< stop after this many accepted merges (>= 0)
+  int max_attempts = 3;         ///< attempts per chart pair (a rejected pair is retried when a chart changes)
+  int max_free_vertices = 2000; ///< cap on the free region (nearest wedges first)
+  PlanarityWeights weights;     ///< planarity index weights
+};
+
+/// The option declarations shared by every merger built on the engine (name, default, range, help).
+std::vector<OptionSpec> merge_option_specs();
+/// Reads the shared options (declared by merge_option_specs) from validated stage options.
+MergeOptions merge_options_from(const Options& o);
+
+/// Counters of one run; written to the stage's report node by to_json().
+struct MergeReport {
+  size_t charts_in = 0, charts_out = 0;
+  size_t locked_charts = 0;           ///< charts never merged (degenerate faces)
+  size_t candidates_initial = 0;      ///< candidate chart pairs at the start
+  size_t attempted = 0, accepted = 0;
+  std::map<std::string, size_t> rejected;  ///< by reason
+  double distortion_in = 0;           ///< global ARAP distortion of the atlas given to the engine
+  double distortion_out = 0;          ///< after merging (recomputed from scratch)
+  size_t flipped_out = 0;             ///< faces with det J <= 0 after merging (must be 0)
+  double optimisation_seconds = 0;    ///< time inside the LocalSolver
+  double check_seconds = 0;           ///< time in the acceptance tests
+  double mean_free_vertices = 0;      ///< mean free-region size over attempts that reached the solver
+  json to_json() const;
+};
+
+/// Progress callback (fraction in [0, 1]); may throw to cancel.
+using Progress = std::function<void(double)>;
+
+/// Merges charts of `atlas` in place and compacts it. `face_region` may be empty (one region).
+/// @param mesh         the input mesh (rest shapes = its corner texels); page sizes must be known
+/// @param topo         topology of mesh
+/// @param atlas        working atlas (texels); on return merged and compacted
+/// @param face_region  region per face (-1 = none) or empty for a single region
+/// @param opt          engine options
+/// @param solver       the local optimiser
+/// @param progress     progress callback, may be empty
+MergeReport run_merges(const TexturedMesh& mesh, const Topology& topo, Atlas& atlas,
+                       const std::vector<int>& face_region, const MergeOptions& opt, LocalSolver& solver,
+                       const Progress& progress);
+
+/// Runs the engine as a Merger stage: reads ctx.mesh, ctx.topology, ctx.regions, changes ctx.atlas,
+/// reports progress as `stage` and writes MergeReport::to_json() into *ctx.report.
+/// Throws StageError("STAGE: cause") when the context lacks mesh/topology or the regions do not
+/// match the mesh.
+/// @param ctx     stage context (mesh, topology and atlas required; regions may be empty)
+/// @param stage   qualified stage name, e.g. "mergers.optcuts" (error prefix and progress label)
+/// @param opt     engine options
+/// @param solver  the local optimiser
+void run_merge_stage(StageContext& ctx, const std::string& stage, const MergeOptions& opt, LocalSolver& solver);
+
+}  // namespace texdefrag::merge

@@ -1,0 +1,233 @@
+// Unit tests of the merge engine's pieces: rigid fit, segment crossings, planarity terms, the shared
+// per-triangle algebra, the ARAP solver, and the engine itself on hand-built meshes.
+#include "arap_solver.h"
+#include "geometry2d.h"
+#include "local_problem.h"
+#include "merge_engine.h"
+#include "planarity.h"
+#include "test_support.h"
+
+#include "texdefrag/core/distortion.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace texdefrag::merge {
+namespace {
+
+TEST(MergeEngine, RigidFitRecoversRotationAndTranslation) {
+  const double th = 0.7;
+  Rigid2 truth;
+  truth.R << std::cos(th), -std::sin(th), std::sin(th), std::cos(th);
+  truth.t = Vec2(3, -2);
+  std::vector<Vec2> p = {{0, 0}, {1, 0}, {1, 2}, {-1, 3}}, q;
+  for (const Vec2& x : p) q.push_back(truth(x));
+  const Rigid2 m = fit_rigid(p, q);
+  EXPECT_NEAR((m.R - truth.R).norm(), 0, 1e-12);
+  EXPECT_NEAR((m.t - truth.t).norm(), 0, 1e-12);
+}
+
+TEST(MergeEngine, RigidFitNeverReflects) {
+  // Mirrored target: the best rotation is not a reflection, det stays +1.
+  std::vector<Vec2> p = {{0, 0}, {2, 0}, {0, 1}}, q = {{0, 0}, {-2, 0}, {0, 1}};
+  const Rigid2 m = fit_rigid(p, q);
+  EXPECT_NEAR(m.R.determinant(), 1.0, 1e-12);
+}
+
+TEST(MergeEngine, RigidFitSinglePointIsTranslation) {
+  const Rigid2 m = fit_rigid({{1, 1}}, {{4, 5}});
+  EXPECT_NEAR((m.R - Eigen::Matrix2d::Identity()).norm(), 0, 1e-15);
+  EXPECT_NEAR((m(Vec2(1, 1)) - Vec2(4, 5)).norm(), 0, 1e-15);
+}
+
+TEST(MergeEngine, SegmentsCross) {
+  EXPECT_TRUE(segments_cross({0, 0}, {2, 2}, {0, 2}, {2, 0}));
+  EXPECT_FALSE(segments_cross({0, 0}, {1, 1}, {0, 2}, {2, 2}));
+  EXPECT_FALSE(segments_cross({0, 0}, {1, 0}, {1, 0}, {2, 1}));  // touching endpoint
+  EXPECT_FALSE(segments_cross({0, 0}, {2, 0}, {1, 0}, {3, 0}));  // collinear overlap is not proper
+}
+
+TEST(MergeEngine, AnyCrossingSkipsAdjacentAndFindsCrossing) {
+  std::vector<Segment> all = {{0, 1, {0, 0}, {1, 0}}, {1, 2, {1, 0}, {1, 1}}};
+  std::vector<Segment> moved = {{2, 3, {1, 1}, {0.5, -1}}};
+  EXPECT_TRUE(any_crossing(moved, all));  // crosses segment 0-1
+  moved = {{2, 3, {1, 1}, {0.5, 2}}};
+  EXPECT_FALSE(any_crossing(moved, all));
+  // Shares wedge 1 with the second segment only; touches nothing else.
+  moved = {{1, 4, {1, 0}, {2, -1}}};
+  EXPECT_FALSE(any_crossing(moved, all));
+}
+
+TEST(MergeEngine, AnyCrossingManySegments) {
+  // A long zigzag of moved segments crossing one far segment at the end.
+  std::vector<Segment> moved, all;
+  for (int i = 0; i < 500; ++i) moved.push_back({i, i + 1, {double(i), 0}, {double(i + 1), 0.5}});
+  all.push_back({1000, 1001, {499.5, -1}, {499.6, 1}});
+  EXPECT_TRUE(any_crossing(moved, all));
+  all[0] = {1000, 1001, {499.5, 1}, {499.6, 2}};
+  EXPECT_FALSE(any_crossing(moved, all));
+}
+
+TEST(MergeEngine, PlanarityTermsByHand) {
+  EXPECT_DOUBLE_EQ(planarity_flat(Eigen::Vector3d(0, 2, 4)), 1.0);
+  EXPECT_DOUBLE_EQ(planarity_flat(Eigen::Vector3d(1, 2, 4)), 0.5);
+  EXPECT_DOUBLE_EQ(planarity_flat(Eigen::Vector3d(0, 0, 4)), 0.0);  // denominator 0
+  EXPECT_DOUBLE_EQ(planarity_compact(Eigen::Vector3d(0, 1, 4)), 0.25);
+  EXPECT_DOUBLE_EQ(planarity_compact(Eigen::Vector3d(0, 0, 0)), 0.0);
+  EXPECT_NEAR(planarity_normal(Vec3(0, 0, 1), Vec3(0, 0, -2)), 1.0, 1e-15);
+  EXPECT_NEAR(planarity_normal(Vec3(0, 0, 1), Vec3(1, 0, 0)), 0.0, 1e-15);
+  EXPECT_NEAR(planarity_normal(Vec3(0, 0, 1), Vec3(0, 1, 1).normalized()), 1 - std::sqrt(0.5), 1e-12);
+  EXPECT_DOUBLE_EQ(planarity_normal(Vec3::Zero(), Vec3(0, 0, 1)), 0.0);
+  EXPECT_NEAR(planarity_index(Eigen::Vector3d(0, 1, 4), Vec3(0, 0, 1), Vec3(0, 0, 1)),
+              0.4 * 1 + 0.3 * 0.25 + 0.3 * 1, 1e-15);
+}
+
+TEST(MergeEngine, MomentsOfAUnitSquare) {
+  Moments m;
+  m.add_triangle({0, 0, 0}, {1, 0, 0}, {1, 1, 0});
+  m.add_triangle({0, 0, 0}, {1, 1, 0}, {0, 1, 0});
+  Eigen::Vector3d ev, n;
+  m.plane(ev, n);
+  EXPECT_NEAR(m.area, 1.0, 1e-15);
+  EXPECT_NEAR(ev[0], 0.0, 1e-15);
+  EXPECT_NEAR(ev[1], 1.0 / 12, 1e-12);  // variance of a uniform [0,1] coordinate
+  EXPECT_NEAR(ev[2], 1.0 / 12, 1e-12);
+  EXPECT_NEAR(std::abs(n.z()), 1.0, 1e-12);
+}
+
+TEST(MergeEngine, SignedSingularValuesMatchCore) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-2, 2);
+  for (int i = 0; i < 200; ++i) {
+    Mat2 F;
+    F << u(rng), u(rng), u(rng), u(rng);
+    const Eigen::Vector2d a = signed_singular_values_2x2(F), b = texdefrag::signed_singular_values(F);
+    EXPECT_NEAR((a - b).norm(), 0, 1e-12);
+    EXPECT_NEAR(arap_error_2x2(F), texdefrag::arap_error(F), 1e-12);
+    const Mat2 R = closest_rotation(F);
+    EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
+    EXPECT_NEAR((R.transpose() * R - Mat2::Identity()).norm(), 0, 1e-12);
+  }
+}
+
+TEST(MergeEngine, GradientOperatorGivesDeformationGradient) {
+  LocalProblem p;
+  p.x = {{1, 1}, {4, 2}, {2, 5}};
+  p.num_free = 3;
+  p.tri = {{0, 1, 2}};
+  Mat2 Dm;
+  Dm << 2, 0, 0, 3;
+  p.rest_inv = {Dm.inverse()};
+  p.weight = {3};
+  const Mat2 F = deformation_gradient(p, 0);
+  Eigen::Matrix<double, 6, 1> x;
+  x << 1, 1, 4, 2, 2, 5;
+  const Eigen::Vector4d v = gradient_operator(p.rest_inv[0]) * x;
+  EXPECT_NEAR(v[0], F(0, 0), 1e-15);
+  EXPECT_NEAR(v[1], F(0, 1), 1e-15);
+  EXPECT_NEAR(v[2], F(1, 0), 1e-15);
+  EXPECT_NEAR(v[3], F(1, 1), 1e-15);
+  EXPECT_NEAR(F(0, 0), 1.5, 1e-15);  // (4-1)/2
+  EXPECT_NEAR(F(1, 1), 4.0 / 3, 1e-15);
+}
+
+TEST(MergeEngine, MaxInjectiveStepStopsAtCollapse) {
+  LocalProblem p;
+  p.x = {{0, 0}, {1, 0}, {0, 1}};
+  p.num_free = 1;  // only the first corner moves
+  p.tri = {{0, 1, 2}};
+  p.rest_inv = {Mat2::Identity()};
+  p.weight = {0.5};
+  Eigen::VectorXd d(2);
+  d << 1, 1;  // corner 0 moves towards the hypotenuse x + y = 1, reached at t = 0.5
+  EXPECT_NEAR(max_injective_step(p, d), 0.5, 1e-12);
+  d << -1, -1;  // moving away never collapses
+  EXPECT_TRUE(std::isinf(max_injective_step(p, d)));
+}
+
+/// A 3x3-vertex square patch, the centre free, the ring pinned; the centre starts displaced.
+LocalProblem centre_patch(const Vec2& centre) {
+  LocalProblem p;
+  p.x.push_back(centre);
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i)
+      if (!(i == 1 && j == 1)) p.x.emplace_back(i, j);
+  auto id = [](int i, int j) { return (i == 1 && j == 1) ? 0 : 1 + j * 3 + i - ((j * 3 + i) > 4 ? 1 : 0); };
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      for (const auto& t : {std::array<int, 3>{id(i, j), id(i + 1, j), id(i + 1, j + 1)},
+                            std::array<int, 3>{id(i, j), id(i + 1, j + 1), id(i, j + 1)}}) {
+        p.tri.push_back(t);
+        p.rest_inv.push_back(Mat2::Identity());  // rest edge matrices are set below
+        p.weight.push_back(0.5);
+      }
+    }
+  // Rest = the undisplaced grid.
+  std::vector<Vec2> rest = p.x;
+  rest[0] = Vec2(1, 1);
+  for (size_t t = 0; t < p.tri.size(); ++t) {
+    Mat2 Dm;
+    Dm.col(0) = rest[static_cast<size_t>(p.tri[t][1])] - rest[static_cast<size_t>(p.tri[t][0])];
+    Dm.col(1) = rest[static_cast<size_t>(p.tri[t][2])] - rest[static_cast<size_t>(p.tri[t][0])];
+    p.rest_inv[t] = Dm.inverse();
+  }
+  p.num_free = 1;
+  return p;
+}
+
+TEST(MergeEngine, ArapRestoresTheRestShape) {
+  LocalProblem p = centre_patch({1.3, 0.8});
+  EXPECT_GT(arap_energy(p), 1e-3);
+  ArapSettings s;
+  s.iterations = 100;
+  s.tolerance = 1e-14;
+  const SolveResult r = ArapSolver(s).solve(p);
+  EXPECT_TRUE(r.ok);
+  EXPECT_NEAR((p.x[0] - Vec2(1, 1)).norm(), 0, 1e-6);
+  EXPECT_LT(arap_energy(p), 1e-10);
+}
+
+TEST(MergeEngine, ArapUntanglesAnInvertedStart) {
+  LocalProblem p = centre_patch({2.5, 1.2});  // outside the ring: some triangles inverted
+  EXPECT_GT(count_inverted(p), 0);
+  const SolveResult r = ArapSolver().solve(p);
+  EXPECT_TRUE(r.ok);
+  EXPECT_EQ(count_inverted(p), 0);
+}
+
+// ---- the engine on hand-built meshes (with the ARAP solver; stage tests live with the plugins)
+
+TEST(MergeEngine, FragmentedGridBecomesOneChart) {
+  test::Run run(texdefrag::testing::fragmented_grid_mesh(6, 5, 1024, "unused.png"));
+  ASSERT_EQ(run.ctx.atlas.num_charts, 60);
+  ArapSolver solver;
+  const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{},
+                                   solver, {});
+  EXPECT_EQ(r.charts_in, 60u);
+  EXPECT_EQ(r.charts_out, 1u);
+  EXPECT_EQ(r.accepted, 59u);
+  EXPECT_LT(r.distortion_out, 1e-12);
+  test::expect_valid_atlas(run);
+}
+
+TEST(MergeEngine, MaxMergesStops) {
+  test::Run run(texdefrag::testing::fragmented_grid_mesh(4, 4, 1024, "unused.png"));
+  MergeOptions o;
+  o.max_merges = 5;
+  ArapSolver solver;
+  const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {}, o, solver, {});
+  EXPECT_EQ(r.accepted, 5u);
+  EXPECT_EQ(r.charts_out, 32u - 5u);
+}
+
+TEST(MergeEngine, RegionsOfTheWrongSizeAreAnError) {
+  test::Run run(texdefrag::testing::fragmented_grid_mesh(2, 2, 1024, "unused.png"));
+  ArapSolver solver;
+  EXPECT_THROW(run_merges(run.mesh, run.topo, run.ctx.atlas, std::vector<int>(3, 0), MergeOptions{}, solver, {}),
+               std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace texdefrag::merge

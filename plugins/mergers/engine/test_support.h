@@ -1,0 +1,108 @@
+// Test helpers shared by the mergers' tests: small meshes with known answers and a stage runner.
+#pragma once
+
+#include "texdefrag/core/charts.h"
+#include "texdefrag/core/distortion.h"
+#include "texdefrag/core/topology.h"
+#include "texdefrag/stage/registry.h"
+#include "texdefrag/testing/fixtures.h"
+
+#include <cmath>
+#include <memory>
+#include <string>
+
+namespace texdefrag::merge::test {
+
+/// fragmented_grid_mesh with each triangle's UVs scaled about its first corner by 1 + amp * (+-1)
+/// alternately (amp = 0: the fixture unchanged): merging then has to distort.
+inline TexturedMesh distorted_fragmented_grid(int nx, int ny, double amp) {
+  TexturedMesh m = texdefrag::testing::fragmented_grid_mesh(nx, ny, 1024, "unused.png");
+  for (size_t f = 0; f < m.faces.size(); ++f) {
+    const double s = 1 + amp * (f % 2 ? 1 : -1);
+    const Vec2 o = m.texcoords[static_cast<size_t>(m.faces[f].vt[0])];
+    for (int k = 1; k < 3; ++k) {
+      Vec2& t = m.texcoords[static_cast<size_t>(m.faces[f].vt[static_cast<size_t>(k)])];
+      t = o + s * (t - o);
+    }
+  }
+  return m;
+}
+
+/// fragmented_grid_mesh folded 90 degrees along x = nx/2 (two perpendicular planes); region 0 for
+/// faces with x < nx/2, region 1 for the others.
+inline TexturedMesh folded_grid(int nx, int ny, std::vector<int>& region) {
+  TexturedMesh m = texdefrag::testing::fragmented_grid_mesh(nx, ny, 1024, "unused.png");
+  const double h = nx / 2;
+  region.assign(m.faces.size(), 0);
+  for (size_t f = 0; f < m.faces.size(); ++f) {
+    double cx = 0;
+    for (int k = 0; k < 3; ++k) cx += m.corner_position(f, k).x() / 3;
+    region[f] = cx < h ? 0 : 1;
+  }
+  for (Vec3& p : m.positions)
+    if (p.x() > h) p = Vec3(h, p.y(), p.x() - h);
+  return m;
+}
+
+/// Everything a merger needs, built from a mesh.
+struct Run {
+  TexturedMesh mesh;
+  Topology topo;
+  ChartSet charts;
+  StageContext ctx;
+  json report = json::object();
+
+  explicit Run(TexturedMesh m, std::vector<int> regions = {}) : mesh(std::move(m)) {
+    topo = build_topology(mesh);
+    charts = build_charts(mesh, topo);
+    ctx.mesh = &mesh;
+    ctx.topology = &topo;
+    ctx.input_charts = &charts;
+    ctx.atlas = charts.atlas;
+    if (regions.empty()) {
+      // The M-method's behaviour: one region for every textured face.
+      regions.assign(mesh.faces.size(), 0);
+      for (size_t f = 0; f < mesh.faces.size(); ++f)
+        if (mesh.faces[f].page == kNoPage) regions[f] = -1;
+    }
+    int n = 0;
+    for (int r : regions) n = std::max(n, r + 1);
+    ctx.regions.face_region = std::move(regions);
+    ctx.regions.num_regions = n;
+    ctx.report = &report;
+    ctx.progress = [](const std::string&, double) { return true; };
+  }
+
+  /// Creates stage `name` by name with option overrides and runs it on ctx.
+  void merge(const std::string& name, const json& overrides = json::object()) {
+    Registry& r = Registry::instance();
+    r.load_plugins();
+    const StageInfo* info = r.find(name);
+    ASSERT_NE(info, nullptr) << name;
+    std::unique_ptr<Stage> s = r.create(name);
+    s->set_options(default_options(*info, overrides));
+    auto* m = dynamic_cast<Merger*>(s.get());
+    ASSERT_NE(m, nullptr);
+    m->merge(ctx);
+  }
+};
+
+/// Invariants every merger result must satisfy: every textured face has a chart and wedges, no
+/// face is flipped, charts are UV-connected components of shared wedges.
+inline void expect_valid_atlas(const Run& run) {
+  const Atlas& at = run.ctx.atlas;
+  ASSERT_EQ(at.face_chart.size(), run.mesh.faces.size());
+  for (size_t f = 0; f < run.mesh.faces.size(); ++f) {
+    if (run.mesh.faces[f].page == kNoPage) continue;
+    ASSERT_GE(at.face_chart[f], 0) << "face " << f << " lost its chart";
+    ASSERT_LT(at.face_chart[f], at.num_charts);
+    for (int w : at.face_wedge[f]) {
+      ASSERT_GE(w, 0);
+      ASSERT_LT(static_cast<size_t>(w), at.wedge_uv.size());
+    }
+  }
+  const DistortionSummary d = atlas_distortion(run.mesh, at);
+  EXPECT_EQ(d.flipped, 0u);
+}
+
+}  // namespace texdefrag::merge::test

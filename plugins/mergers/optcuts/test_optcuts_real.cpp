@@ -1,0 +1,49 @@
+// mergers.optcuts and mergers.arap on the real tiles under ../shared/data (skipped when absent),
+// with one region for all faces (the M-method's behaviour): invariants, and the numbers printed.
+#include "test_support.h"
+
+#include "texdefrag/io/obj.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+
+namespace texdefrag::merge {
+namespace {
+
+void run_real(const std::string& stage, const json& options) {
+  const auto models = texdefrag::testing::real_models(25000);
+  if (models.empty()) GTEST_SKIP() << "no real models under ../shared/data";
+  for (const std::string& path : models) {
+    SCOPED_TRACE(path);
+    test::Run run(read_obj(path));
+    const auto t0 = std::chrono::steady_clock::now();
+    run.merge(stage, options);
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const json& r = run.report;
+    const size_t in = r["charts_in"], out = r["charts_out"];
+    std::printf("%s %s: %zu faces, %zu charts => %zu charts (-%.1f%%), E=%.5f, flips=%zu, %zu/%zu merges, "
+                "optimisation %.2f s, total %.2f s, rejected %s\n",
+                stage.c_str(), std::filesystem::path(path).filename().c_str(), run.mesh.faces.size(), in, out,
+                100.0 * static_cast<double>(in - out) / static_cast<double>(in), r["distortion_out"].get<double>(),
+                r["flipped_out"].get<size_t>(), r["merges_accepted"].get<size_t>(), r["merges_attempted"].get<size_t>(),
+                r["optimisation_seconds"].get<double>(), secs, r["rejected"].dump().c_str());
+    test::expect_valid_atlas(run);
+    EXPECT_LE(r["distortion_out"].get<double>(), options.value("global_bound", 0.025) + 1e-12);
+    EXPECT_EQ(r["flipped_out"], 0);
+    // Chart count drops a lot on photogrammetry tiles (thousands of tiny charts).
+    EXPECT_LT(out, in / 2);
+    // Every face kept its page.
+    for (size_t f = 0; f < run.mesh.faces.size(); ++f)
+      if (run.mesh.faces[f].page != kNoPage)
+        EXPECT_EQ(run.ctx.atlas.chart_page[static_cast<size_t>(run.ctx.atlas.face_chart[f])], run.mesh.faces[f].page);
+  }
+}
+
+TEST(OptCutsReal, MergesRealTiles) { run_real("mergers.optcuts", json::object()); }
+TEST(ArapReal, MMethodOnRealTiles) { run_real("mergers.arap", {{"priority", "mmethod"}}); }
+
+}  // namespace
+}  // namespace texdefrag::merge
