@@ -1,0 +1,264 @@
+// Input-vs-output comparison of ../shared/docs/METHOD.md section 3: distortion of the UV map
+// (ARAP measure and symmetric Dirichlet of Liu et al. 2024, "planar feature-preserving texture
+// defragmentation", and Maggiordomo et al. 2021) over faces matched by 3D triangle, and texture
+// fidelity at surface samples (PSNR; fraction copied without resampling).
+#include "texdefrag/core/charts.h"
+#include "texdefrag/core/distortion.h"
+#include "texdefrag/eval/metrics.h"
+#include "texdefrag/io/obj.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace texdefrag::eval {
+namespace {
+
+/// The input/output UV triangles (texels of each side's page) of a matched input face, output
+/// corners ordered like the input corners. False when the face is unmatched or untextured on a side.
+bool matched_uvs(const TexturedMesh& in, const TexturedMesh& out, const FaceMatch& match, size_t fi,
+                 Vec2 orig[3], Vec2 now[3], int& fo) {
+  fo = match.output_of_input[fi];
+  if (fo < 0 || in.faces[fi].page == kNoPage || out.faces[static_cast<size_t>(fo)].page == kNoPage) return false;
+  for (int k = 0; k < 3; ++k) {
+    orig[k] = in.corner_texel(fi, k);
+    now[k] = out.corner_texel(static_cast<size_t>(fo), match.output_corner[fi][static_cast<size_t>(k)]);
+  }
+  return true;
+}
+
+double uv_area(const Vec2 t[3]) {
+  return 0.5 * std::abs((t[1] - t[0]).x() * (t[2] - t[0]).y() - (t[1] - t[0]).y() * (t[2] - t[0]).x());
+}
+
+/// RGB of texel (ix, iy) (y up); grey images are replicated.
+void texel_rgb(const Image& img, int ix, int iy, double rgb[3]) {
+  const uint8_t* p = img.at(ix, img.height - 1 - iy);
+  for (int c = 0; c < 3; ++c) rgb[c] = p[img.channels >= 3 ? c : 0];
+}
+
+/// Bilinear colour at texel coordinates (x, y), y up, texel centres at half-integers, clamped at
+/// the image border.
+void bilinear_rgb(const Image& img, double x, double y, double rgb[3]) {
+  const double fx = x - 0.5, fr = static_cast<double>(img.height) - y - 0.5;  // column, row (top down)
+  const double x0 = std::floor(fx), r0 = std::floor(fr);
+  const double tx = fx - x0, tr = fr - r0;
+  const auto clampi = [](double v, int hi) { return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(hi))); };
+  const int c0 = clampi(x0, img.width - 1), c1 = clampi(x0 + 1, img.width - 1);
+  const int w0 = clampi(r0, img.height - 1), w1 = clampi(r0 + 1, img.height - 1);
+  const int ch = img.channels;
+  const uint8_t* p00 = img.at(c0, w0);
+  const uint8_t* p10 = img.at(c1, w0);
+  const uint8_t* p01 = img.at(c0, w1);
+  const uint8_t* p11 = img.at(c1, w1);
+  for (int c = 0; c < 3; ++c) {
+    const int k = ch >= 3 ? c : 0;
+    rgb[c] = (1 - tr) * ((1 - tx) * p00[k] + tx * p10[k]) + tr * ((1 - tx) * p01[k] + tx * p11[k]);
+  }
+}
+
+/// The 8 symmetries of the texel grid: rotations by multiples of 90 degrees, then the same
+/// composed with the mirror y -> -y. Row-major 2x2 (a b; c d).
+constexpr double kGridSymmetry[8][4] = {{1, 0, 0, 1},  {0, -1, 1, 0},  {-1, 0, 0, -1}, {0, 1, -1, 0},
+                                        {1, 0, 0, -1}, {0, 1, 1, 0},   {-1, 0, 0, 1},  {0, -1, -1, 0}};
+
+Vec2 apply_symmetry(int r, const Vec2& p) {
+  const double* m = kGridSymmetry[r];
+  return {m[0] * p.x() + m[1] * p.y(), m[2] * p.x() + m[3] * p.y()};
+}
+
+/// Finds a whole-texel map (a symmetry of the texel grid and an integer translation) taking orig
+/// to now within tol texels. Returns the symmetry index 0..7 (-1 when none) and the translation.
+int whole_texel_map(const Vec2 orig[3], const Vec2 now[3], double tol, Vec2& t) {
+  for (int r = 0; r < 8; ++r) {
+    const Vec2 tr = now[0] - apply_symmetry(r, orig[0]);
+    t = Vec2(std::round(tr.x()), std::round(tr.y()));
+    bool ok = true;
+    for (int k = 0; k < 3 && ok; ++k) ok = (apply_symmetry(r, orig[k]) + t - now[k]).cwiseAbs().maxCoeff() <= tol;
+    if (ok) return r;
+  }
+  return -1;
+}
+
+void check_images(const TexturedMesh& mesh, const std::vector<Image>& pages, const char* which) {
+  if (pages.size() != mesh.pages.size())
+    throw std::invalid_argument(std::string("eval: ") + which + " has " + std::to_string(mesh.pages.size()) +
+                                " pages but " + std::to_string(pages.size()) + " images");
+  for (size_t p = 0; p < pages.size(); ++p) {
+    const Image& im = pages[p];
+    if (im.width != mesh.pages[p].width || im.height != mesh.pages[p].height || im.channels < 1 ||
+        im.pixels.size() != static_cast<size_t>(im.width) * static_cast<size_t>(im.height) * static_cast<size_t>(im.channels))
+      throw std::invalid_argument(std::string("eval: ") + which + " page " + std::to_string(p) + " ('" +
+                                  mesh.pages[p].image_path + "'): image is " + std::to_string(im.width) + "x" +
+                                  std::to_string(im.height) + ", page is " + std::to_string(mesh.pages[p].width) +
+                                  "x" + std::to_string(mesh.pages[p].height));
+  }
+}
+
+}  // namespace
+
+DistortionMetrics uv_distortion(const TexturedMesh& in, const TexturedMesh& out, const FaceMatch& match) {
+  // note: an output chart laid out as a mirror image of its input (with its texture mirrored
+  // likewise, as MeshLab-written M-method outputs are, everywhere) shows the same texture on the
+  // surface: its reflection is a convention, not distortion. A chart whose faces reverse
+  // orientation over most of its input UV area is measured mirrored (y -> -y); its faces whose
+  // orientation still disagrees are the flipped ones.
+  const Topology otopo = build_topology(out);
+  const ChartSet ocharts = build_charts(out, otopo);
+  std::vector<double> orientation(static_cast<size_t>(ocharts.atlas.num_charts), 0.0);
+  for (size_t f = 0; f < in.faces.size(); ++f) {
+    Vec2 o[3], n[3];
+    int fo;
+    Eigen::Matrix2d J;
+    if (!matched_uvs(in, out, match, f, o, n, fo) || !uv_jacobian(o, n, J)) continue;
+    const double det = J.determinant();
+    orientation[static_cast<size_t>(ocharts.atlas.face_chart[static_cast<size_t>(fo)])] +=
+        uv_area(o) * ((det > 0) - (det < 0));
+  }
+  DistortionMetrics d;
+  for (double x : orientation) d.mirrored_charts += x < 0;
+  double wsd = 0;
+  for (size_t f = 0; f < in.faces.size(); ++f) {
+    Vec2 o[3], n[3];
+    int fo;
+    if (!matched_uvs(in, out, match, f, o, n, fo)) continue;
+    ++d.faces;
+    if (orientation[static_cast<size_t>(ocharts.atlas.face_chart[static_cast<size_t>(fo)])] < 0) {
+      ++d.mirrored_faces;
+      for (Vec2& p : n) p.y() = -p.y();
+    }
+    const double w = uv_area(o);
+    Eigen::Matrix2d J;
+    if (w == 0 || !uv_jacobian(o, n, J)) {
+      ++d.zero_area_input;
+      continue;
+    }
+    const double det = J.determinant();
+    if (det <= 0) ++d.flipped;
+    d.arap += w * arap_error(J);
+    d.weight += w;
+    if (det > 0) {
+      d.symmetric_dirichlet += w * symmetric_dirichlet(J);
+      wsd += w;
+    }
+  }
+  if (d.weight > 0) d.arap /= d.weight;
+  if (wsd > 0) d.symmetric_dirichlet /= wsd;
+  return d;
+}
+
+FidelityMetrics texture_fidelity(const TexturedMesh& in, const std::vector<Image>& in_pages, const TexturedMesh& out,
+                                 const std::vector<Image>& out_pages, const FaceMatch& match,
+                                 const FidelityOptions& options) {
+  if (options.max_subdivision < 1) throw std::invalid_argument("eval: max_subdivision must be >= 1");
+  check_images(in, in_pages, "input");
+  check_images(out, out_pages, "output");
+  FidelityMetrics r;
+  double total_area = 0;
+  for (size_t f = 0; f < in.faces.size(); ++f) {
+    Vec2 o[3], n[3];
+    int fo;
+    if (matched_uvs(in, out, match, f, o, n, fo)) total_area += uv_area(o);
+  }
+  if (total_area <= 0) return r;
+  const double density = static_cast<double>(options.samples) / total_area;
+
+  double sq = 0, copied = 0, rigid = 0, sampled = 0;
+  for (size_t f = 0; f < in.faces.size(); ++f) {
+    Vec2 o[3], n[3];
+    int fo;
+    if (!matched_uvs(in, out, match, f, o, n, fo)) continue;
+    const double area = uv_area(o);
+    if (area == 0) continue;
+    ++r.faces;
+    r.weight += area;
+    const Image& ii = in_pages[static_cast<size_t>(in.faces[f].page)];
+    const Image& oi = out_pages[static_cast<size_t>(out.faces[static_cast<size_t>(fo)].page)];
+    Vec2 t;
+    const int rot = whole_texel_map(o, n, options.rigid_tolerance, t);
+    if (rot >= 0) {
+      ++r.rigid_faces;
+      rigid += area;
+    }
+    const long m = std::clamp<long>(std::lround(std::sqrt(area * density)), 1L, options.max_subdivision);
+    const double w = area / static_cast<double>(m * m);
+    const double inv = 1.0 / static_cast<double>(m);
+    // Stratified: the centroids of the m^2 sub-triangles of the regular subdivision.
+    auto sample = [&](double a, double b) {
+      const Vec2 pi = o[0] + a * (o[1] - o[0]) + b * (o[2] - o[0]);
+      const Vec2 po = n[0] + a * (n[1] - n[0]) + b * (n[2] - n[0]);
+      double ci[3], co[3];
+      bilinear_rgb(ii, pi.x(), pi.y(), ci);
+      bilinear_rgb(oi, po.x(), po.y(), co);
+      double e = 0;
+      for (int c = 0; c < 3; ++c) e += (ci[c] - co[c]) * (ci[c] - co[c]);
+      sq += w * e / 3.0;
+      sampled += w;
+      ++r.samples;
+      if (rot < 0) return;
+      const double ix = std::floor(pi.x()), iy = std::floor(pi.y());
+      if (ix < 0 || iy < 0 || ix >= ii.width || iy >= ii.height) return;
+      // The texel's centre maps exactly onto an output texel centre (half-integers).
+      const Vec2 q = apply_symmetry(rot, Vec2(ix + 0.5, iy + 0.5)) + t;
+      const double qx = std::floor(q.x()), qy = std::floor(q.y());
+      if (qx < 0 || qy < 0 || qx >= oi.width || qy >= oi.height) return;
+      double ti[3], to[3];
+      texel_rgb(ii, static_cast<int>(ix), static_cast<int>(iy), ti);
+      texel_rgb(oi, static_cast<int>(qx), static_cast<int>(qy), to);
+      if (ti[0] == to[0] && ti[1] == to[1] && ti[2] == to[2]) copied += w;
+    };
+    for (long i = 0; i < m; ++i)
+      for (long j = 0; i + j < m; ++j) {
+        sample((static_cast<double>(i) + 1.0 / 3) * inv, (static_cast<double>(j) + 1.0 / 3) * inv);
+        if (i + j <= m - 2) sample((static_cast<double>(i) + 2.0 / 3) * inv, (static_cast<double>(j) + 2.0 / 3) * inv);
+      }
+  }
+  if (sampled > 0) {
+    // note: divided by the sum of sample weights (not r.weight) so that "all copied" is exactly 1.
+    r.mse = sq / sampled;
+    r.copied_fraction = copied / sampled;
+    r.rigid_fraction = rigid / r.weight;
+  }
+  r.psnr_db = r.mse > 0 ? 10.0 * std::log10(255.0 * 255.0 / r.mse) : std::numeric_limits<double>::infinity();
+  return r;
+}
+
+std::vector<Image> load_pages(const TexturedMesh& mesh) {
+  std::vector<Image> pages;
+  pages.reserve(mesh.pages.size());
+  for (size_t p = 0; p < mesh.pages.size(); ++p) {
+    if (mesh.pages[p].image_path.empty())
+      throw ImageError("eval: page " + std::to_string(p) + " (material '" + mesh.pages[p].material + "') has no image file");
+    pages.push_back(read_image(mesh.pages[p].image_path));
+  }
+  return pages;
+}
+
+Comparison compare(const TexturedMesh& in_mesh, const TexturedMesh& out_mesh, const EvalOptions& options) {
+  Comparison c;
+  c.input = model_metrics(in_mesh);
+  c.output = model_metrics(out_mesh);
+  const TexturedMesh in = canonical_pages(in_mesh);
+  const TexturedMesh out = canonical_pages(out_mesh);
+  c.match = match_faces(in, out, options.match);
+  c.distortion = uv_distortion(in, out, c.match);
+  if (options.texture) {
+    const std::vector<Image> ip = load_pages(in);
+    const std::vector<Image> op = load_pages(out);
+    c.fidelity = texture_fidelity(in, ip, out, op, c.match, options.fidelity);
+    c.has_fidelity = true;
+  }
+  return c;
+}
+
+Comparison compare_files(const std::string& in_obj, const std::string& out_obj, const EvalOptions& options) {
+  const TexturedMesh in = read_obj(in_obj);
+  const TexturedMesh out = read_obj(out_obj);
+  Comparison c = compare(in, out, options);
+  c.input_path = in_obj;
+  c.output_path = out_obj;
+  return c;
+}
+
+}  // namespace texdefrag::eval
