@@ -1,0 +1,441 @@
+// Meshing of the synthetic buildings like a multi-view-stereo surface: every planar polygon gets
+// an irregular triangulation (jittered hexagonal point grid + 2D Delaunay triangulation by
+// Bowyer-Watson insertion, Bowyer 1981 / Watson 1981), with the points of shared polygon edges
+// created once so that neighbouring planes join along common vertices. Then noise on positions and
+// a few small holes.
+#include "internal.h"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+namespace texdefrag::synth::detail {
+namespace {
+
+/// Vertices merged when closer than 1e-6 m (corners computed by different polygons differ in the
+/// last bits), found through a 1 mm hash grid.
+class VertexPool {
+ public:
+  int find_or_add(const Vec3& p) {
+    const std::array<int64_t, 3> c = cell(p);
+    for (int64_t dx = -1; dx <= 1; ++dx)
+      for (int64_t dy = -1; dy <= 1; ++dy)
+        for (int64_t dz = -1; dz <= 1; ++dz) {
+          auto it = cells_.find(key({c[0] + dx, c[1] + dy, c[2] + dz}));
+          if (it == cells_.end()) continue;
+          for (int id : it->second)
+            if ((pos[static_cast<size_t>(id)] - p).squaredNorm() < 1e-12) return id;
+        }
+    pos.push_back(p);
+    const int id = static_cast<int>(pos.size()) - 1;
+    cells_[key(c)].push_back(id);
+    return id;
+  }
+  std::vector<Vec3> pos;
+
+ private:
+  static std::array<int64_t, 3> cell(const Vec3& p) {
+    return {static_cast<int64_t>(std::floor(p.x() * 1e3)), static_cast<int64_t>(std::floor(p.y() * 1e3)),
+            static_cast<int64_t>(std::floor(p.z() * 1e3))};
+  }
+  static uint64_t key(const std::array<int64_t, 3>& c) {
+    return Rng::mix(static_cast<uint64_t>(c[0]) * 0x9E3779B1ull ^ Rng::mix(static_cast<uint64_t>(c[1]) ^ (static_cast<uint64_t>(c[2]) << 21)));
+  }
+  std::unordered_map<uint64_t, std::vector<int>> cells_;
+};
+
+double orient(const Vec2& a, const Vec2& b, const Vec2& c) {
+  return (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+}
+
+/// True when d is strictly inside the circumcircle of counter-clockwise triangle abc.
+bool in_circle(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
+  const double adx = a.x() - d.x(), ady = a.y() - d.y();
+  const double bdx = b.x() - d.x(), bdy = b.y() - d.y();
+  const double cdx = c.x() - d.x(), cdy = c.y() - d.y();
+  const double ad = adx * adx + ady * ady, bd = bdx * bdx + bdy * bdy, cd = cdx * cdx + cdy * cdy;
+  return adx * (bdy * cd - bd * cdy) - ady * (bdx * cd - bd * cdx) + ad * (bdx * cdy - bdy * cdx) > 0;
+}
+
+/// Incremental Delaunay triangulation (Bowyer-Watson) with walking point location.
+class Delaunay {
+ public:
+  struct Tri {
+    std::array<int, 3> v;  ///< counter-clockwise
+    std::array<int, 3> n;  ///< neighbour across the edge opposite v[i], -1 none
+  };
+
+  explicit Delaunay(std::vector<Vec2> pts) : p_(std::move(pts)) {
+    Vec2 lo = p_[0], hi = p_[0];
+    for (const Vec2& q : p_) {
+      lo = lo.cwiseMin(q);
+      hi = hi.cwiseMax(q);
+    }
+    const Vec2 c = 0.5 * (lo + hi);
+    const double r = std::max(1.0, (hi - lo).norm()) * 20;
+    n_real_ = static_cast<int>(p_.size());
+    p_.emplace_back(c.x() - 2 * r, c.y() - r);
+    p_.emplace_back(c.x() + 2 * r, c.y() - r);
+    p_.emplace_back(c.x(), c.y() + 2 * r);
+    tris_.push_back({{n_real_, n_real_ + 1, n_real_ + 2}, {-1, -1, -1}});
+    dead_.push_back(0);
+  }
+
+  void insert_all() {
+    for (int k = 0; k < n_real_; ++k) insert(k);
+  }
+
+  /// Triangles not touching the super-triangle.
+  std::vector<std::array<int, 3>> triangles() const {
+    std::vector<std::array<int, 3>> out;
+    for (size_t t = 0; t < tris_.size(); ++t) {
+      if (dead_[t]) continue;
+      const auto& v = tris_[t].v;
+      if (v[0] >= n_real_ || v[1] >= n_real_ || v[2] >= n_real_) continue;
+      out.push_back(v);
+    }
+    return out;
+  }
+
+ private:
+  int locate(const Vec2& q) {
+    int t = last_;
+    if (t < 0 || dead_[static_cast<size_t>(t)]) t = first_alive();
+    for (size_t steps = 0; steps < tris_.size() + 8; ++steps) {
+      const Tri& T = tris_[static_cast<size_t>(t)];
+      int next = -1;
+      for (int i = 0; i < 3; ++i) {
+        const int e = (i + static_cast<int>(steps)) % 3;  // rotate the start edge: no cycling
+        const Vec2& a = p_[static_cast<size_t>(T.v[(e + 1) % 3])];
+        const Vec2& b = p_[static_cast<size_t>(T.v[(e + 2) % 3])];
+        if (orient(a, b, q) < 0 && T.n[e] >= 0) {
+          next = T.n[e];
+          break;
+        }
+      }
+      if (next < 0) return t;
+      t = next;
+    }
+    return t;
+  }
+  int first_alive() const {
+    for (size_t t = 0; t < tris_.size(); ++t)
+      if (!dead_[t]) return static_cast<int>(t);
+    return 0;
+  }
+
+  void insert(int k) {
+    const Vec2& q = p_[static_cast<size_t>(k)];
+    const int t0 = locate(q);
+    cavity_.clear();
+    cavity_.push_back(t0);
+    mark_.resize(tris_.size(), 0);
+    mark_[static_cast<size_t>(t0)] = 1;
+    for (size_t i = 0; i < cavity_.size(); ++i) {
+      const Tri& T = tris_[static_cast<size_t>(cavity_[i])];
+      for (int e = 0; e < 3; ++e) {
+        const int nb = T.n[e];
+        if (nb < 0 || mark_[static_cast<size_t>(nb)]) continue;
+        const Tri& N = tris_[static_cast<size_t>(nb)];
+        if (in_circle(p_[static_cast<size_t>(N.v[0])], p_[static_cast<size_t>(N.v[1])], p_[static_cast<size_t>(N.v[2])], q)) {
+          mark_[static_cast<size_t>(nb)] = 1;
+          cavity_.push_back(nb);
+        }
+      }
+    }
+    // boundary of the cavity, each edge (a, b) counter-clockwise with its outside neighbour
+    border_.clear();
+    for (int t : cavity_) {
+      const Tri& T = tris_[static_cast<size_t>(t)];
+      for (int e = 0; e < 3; ++e) {
+        const int nb = T.n[e];
+        if (nb >= 0 && mark_[static_cast<size_t>(nb)]) continue;
+        border_.push_back({T.v[(e + 1) % 3], T.v[(e + 2) % 3], nb});
+      }
+    }
+    for (int t : cavity_) {
+      dead_[static_cast<size_t>(t)] = 1;
+      mark_[static_cast<size_t>(t)] = 0;
+    }
+    size_t reuse = 0;
+    created_.clear();
+    for (const auto& be : border_) {
+      int id;
+      if (reuse < cavity_.size()) {
+        id = cavity_[reuse++];
+        dead_[static_cast<size_t>(id)] = 0;
+      } else {
+        id = static_cast<int>(tris_.size());
+        tris_.push_back({});
+        dead_.push_back(0);
+        mark_.push_back(0);
+      }
+      tris_[static_cast<size_t>(id)] = {{be.a, be.b, k}, {-1, -1, be.outside}};
+      if (be.outside >= 0) {
+        Tri& O = tris_[static_cast<size_t>(be.outside)];
+        for (int e = 0; e < 3; ++e)
+          if (O.v[(e + 1) % 3] == be.b && O.v[(e + 2) % 3] == be.a) O.n[e] = id;
+      }
+      created_.push_back(id);
+    }
+    // link the fan: tri (a, b, k): n[0] is across (b, k) = the tri starting at b; n[1] across (k, a)
+    for (int id : created_) {
+      Tri& T = tris_[static_cast<size_t>(id)];
+      for (int other : created_) {
+        const Tri& O = tris_[static_cast<size_t>(other)];
+        if (O.v[0] == T.v[1]) T.n[0] = other;
+        if (O.v[1] == T.v[0]) T.n[1] = other;
+      }
+    }
+    last_ = created_.empty() ? -1 : created_.back();
+  }
+
+  std::vector<Vec2> p_;
+  int n_real_ = 0;
+  std::vector<Tri> tris_;
+  std::vector<uint8_t> dead_, mark_;
+  std::vector<int> cavity_, created_;
+  int last_ = -1;
+  struct BorderEdge { int a, b, outside; };
+  std::vector<BorderEdge> border_;
+};
+
+/// Even-odd point-in-polygon over several rings.
+bool inside(const std::vector<std::vector<Vec2>>& rings, const Vec2& q) {
+  bool in = false;
+  for (const auto& r : rings)
+    for (size_t i = 0, j = r.size() - 1; i < r.size(); j = i++) {
+      const Vec2& a = r[i];
+      const Vec2& b = r[j];
+      if ((a.y() > q.y()) != (b.y() > q.y()) && q.x() < (b.x() - a.x()) * (q.y() - a.y()) / (b.y() - a.y()) + a.x())
+        in = !in;
+    }
+  return in;
+}
+
+double dist2_to_rings(const std::vector<std::vector<Vec2>>& rings, const Vec2& q) {
+  double best = 1e300;
+  for (const auto& r : rings)
+    for (size_t i = 0, j = r.size() - 1; i < r.size(); j = i++) {
+      const Vec2 ab = r[i] - r[j];
+      const double l2 = ab.squaredNorm();
+      const double t = l2 > 0 ? std::clamp((q - r[j]).dot(ab) / l2, 0.0, 1.0) : 0.0;
+      best = std::min(best, (r[j] + t * ab - q).squaredNorm());
+    }
+  return best;
+}
+
+/// Corners of all polygons, bucketed in a 1 m grid, to split polygon edges at T-junctions.
+class CornerGrid {
+ public:
+  void add(int id, const Vec3& p) { cells_[key(p)].push_back(id); }
+  /// Corner ids lying inside segment (a, b) (not at its ends), sorted along it.
+  std::vector<int> on_segment(const std::vector<Vec3>& pos, int ia, int ib) const {
+    const Vec3& a = pos[static_cast<size_t>(ia)];
+    const Vec3& b = pos[static_cast<size_t>(ib)];
+    const Vec3 d = b - a;
+    const double len2 = d.squaredNorm();
+    std::vector<std::pair<double, int>> hits;
+    const Vec3 lo = a.cwiseMin(b), hi = a.cwiseMax(b);
+    for (int64_t x = cell(lo.x()) - 1; x <= cell(hi.x()) + 1; ++x)
+      for (int64_t y = cell(lo.y()) - 1; y <= cell(hi.y()) + 1; ++y)
+        for (int64_t z = cell(lo.z()) - 1; z <= cell(hi.z()) + 1; ++z) {
+          auto it = cells_.find(key3(x, y, z));
+          if (it == cells_.end()) continue;
+          for (int id : it->second) {
+            if (id == ia || id == ib) continue;
+            const Vec3& p = pos[static_cast<size_t>(id)];
+            const double t = (p - a).dot(d) / len2;
+            if (t <= 1e-9 || t >= 1 - 1e-9) continue;
+            if ((a + t * d - p).squaredNorm() < 1e-10) hits.emplace_back(t, id);
+          }
+        }
+    std::sort(hits.begin(), hits.end());
+    std::vector<int> out;
+    for (const auto& h : hits) out.push_back(h.second);
+    return out;
+  }
+
+ private:
+  static int64_t cell(double v) { return static_cast<int64_t>(std::floor(v)); }
+  static uint64_t key3(int64_t x, int64_t y, int64_t z) {
+    return Rng::mix(static_cast<uint64_t>(x) * 0x9E3779B1ull ^ Rng::mix(static_cast<uint64_t>(y) ^ (static_cast<uint64_t>(z) << 21)));
+  }
+  static uint64_t key(const Vec3& p) { return key3(cell(p.x()), cell(p.y()), cell(p.z())); }
+  std::unordered_map<uint64_t, std::vector<int>> cells_;
+};
+
+}  // namespace
+
+size_t remesh(const Shape& shape, double edge, Rng& rng, RawMesh* out) {
+  VertexPool pool;
+  CornerGrid corners;
+  // 1. corners, merged across polygons
+  std::vector<std::vector<std::vector<int>>> ring_ids(shape.polygons.size());
+  for (size_t pi = 0; pi < shape.polygons.size(); ++pi) {
+    const Polygon& P = shape.polygons[pi];
+    auto add_ring = [&](const std::vector<Vec3>& r) {
+      std::vector<int> ids;
+      for (const Vec3& p : r) {
+        const size_t before = pool.pos.size();
+        const int id = pool.find_or_add(p);
+        if (pool.pos.size() != before) corners.add(id, p);
+        if (ids.empty() || ids.back() != id) ids.push_back(id);
+      }
+      while (ids.size() > 1 && ids.front() == ids.back()) ids.pop_back();
+      ring_ids[pi].push_back(ids);
+    };
+    add_ring(P.outer);
+    for (const auto& h : P.holes) add_ring(h);
+  }
+  // 2. ring edges split at T-junctions and subdivided once per elementary segment
+  std::unordered_map<uint64_t, std::vector<int>> segment_points;
+  auto subdivide = [&](int a, int b) {
+    const int lo = std::min(a, b), hi = std::max(a, b);
+    const uint64_t key = (static_cast<uint64_t>(lo) << 32) | static_cast<uint64_t>(hi);
+    auto it = segment_points.find(key);
+    if (it == segment_points.end()) {
+      const Vec3 A = pool.pos[static_cast<size_t>(lo)], B = pool.pos[static_cast<size_t>(hi)];
+      const int n = std::max(1, static_cast<int>(std::lround((B - A).norm() / edge)));
+      std::vector<int> ids;
+      for (int i = 1; i < n; ++i) {
+        const double t = static_cast<double>(i) / n;
+        pool.pos.push_back(A + t * (B - A));
+        ids.push_back(static_cast<int>(pool.pos.size()) - 1);
+      }
+      it = segment_points.emplace(key, std::move(ids)).first;
+    }
+    std::vector<int> pts = it->second;
+    if (a != lo) std::reverse(pts.begin(), pts.end());
+    return pts;
+  };
+
+  size_t predicted = 0;
+  if (out) {
+    out->tris.clear();
+    out->face_plane.clear();
+  }
+  std::vector<Vec3> interior_pos;  // appended after the pool's vertices
+  std::vector<std::array<int, 3>> tris;
+  std::vector<int> face_plane;
+  for (size_t pi = 0; pi < shape.polygons.size(); ++pi) {
+    const Polygon& P = shape.polygons[pi];
+    // frame of the plane: (u, v, n) right-handed
+    const Vec3 n = P.normal;
+    const Vec3 ref = std::abs(n.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
+    const Vec3 u = ref.cross(n).normalized();
+    const Vec3 v = n.cross(u);
+    const Vec3 origin = P.outer[0];
+    auto to2 = [&](const Vec3& p) { return Vec2((p - origin).dot(u), (p - origin).dot(v)); };
+
+    std::vector<std::vector<Vec2>> rings2;
+    std::vector<int> ids;  // boundary vertex ids, then interior (negative: -1 - interior index)
+    std::vector<Vec2> pts;
+    for (const auto& ring : ring_ids[pi]) {
+      if (ring.size() < 3) continue;
+      std::vector<Vec2> r2;
+      for (size_t i = 0; i < ring.size(); ++i) {
+        const int a = ring[i], b = ring[(i + 1) % ring.size()];
+        r2.push_back(to2(pool.pos[static_cast<size_t>(a)]));
+        std::vector<int> chain = corners.on_segment(pool.pos, a, b);
+        chain.insert(chain.begin(), a);
+        chain.push_back(b);
+        for (size_t c = 0; c + 1 < chain.size(); ++c) {
+          ids.push_back(chain[c]);
+          pts.push_back(to2(pool.pos[static_cast<size_t>(chain[c])]));
+          for (int m : subdivide(chain[c], chain[c + 1])) {
+            ids.push_back(m);
+            pts.push_back(to2(pool.pos[static_cast<size_t>(m)]));
+          }
+        }
+      }
+      rings2.push_back(std::move(r2));
+    }
+    if (rings2.empty()) continue;
+    const size_t n_boundary = pts.size();
+    // interior: jittered hexagonal grid, kept away from the boundary
+    Vec2 lo = rings2[0][0], hi = rings2[0][0];
+    for (const auto& r : rings2)
+      for (const Vec2& q : r) {
+        lo = lo.cwiseMin(q);
+        hi = hi.cwiseMax(q);
+      }
+    const double dy = edge * 0.8660254037844386;
+    const double ox = rng.uniform(0, edge), oy = rng.uniform(0, dy);
+    const double keep2 = (0.55 * edge) * (0.55 * edge);
+    int row = 0;
+    for (double y = lo.y() + oy; y < hi.y(); y += dy, ++row) {
+      std::vector<Vec2> line;
+      for (double x = lo.x() + ox + (row % 2 ? edge / 2 : 0.0); x < hi.x(); x += edge) {
+        const Vec2 q(x + rng.uniform(-0.3, 0.3) * edge, y + rng.uniform(-0.3, 0.3) * dy);
+        if (!inside(rings2, q) || dist2_to_rings(rings2, q) < keep2) continue;
+        line.push_back(q);
+      }
+      if (row % 2) std::reverse(line.begin(), line.end());  // boustrophedon: coherent insertion
+      for (const Vec2& q : line) {
+        pts.push_back(q);
+        ids.push_back(-1 - static_cast<int>(interior_pos.size()));
+        interior_pos.push_back(origin + q.x() * u + q.y() * v);
+      }
+    }
+    const size_t n_interior = pts.size() - n_boundary;
+    predicted += 2 * n_interior + n_boundary + 2 * (rings2.size() - 1) - 2;
+    if (!out) continue;
+    Delaunay dt(pts);
+    dt.insert_all();
+    const double min_area = 1e-6 * edge * edge;
+    for (const auto& t : dt.triangles()) {
+      const Vec2& a = pts[static_cast<size_t>(t[0])];
+      const Vec2& b = pts[static_cast<size_t>(t[1])];
+      const Vec2& c = pts[static_cast<size_t>(t[2])];
+      if (orient(a, b, c) < min_area) continue;
+      if (!inside(rings2, (a + b + c) / 3.0)) continue;
+      std::array<int, 3> f;
+      for (int k = 0; k < 3; ++k) f[static_cast<size_t>(k)] = ids[static_cast<size_t>(t[static_cast<size_t>(k)])];
+      tris.push_back(f);
+      face_plane.push_back(P.plane);
+    }
+  }
+  if (!out) return predicted;
+  // interior vertices follow the pool's
+  const int base = static_cast<int>(pool.pos.size());
+  out->positions = pool.pos;
+  out->positions.insert(out->positions.end(), interior_pos.begin(), interior_pos.end());
+  for (auto& f : tris)
+    for (int& id : f)
+      if (id < 0) id = base + (-1 - id);
+  out->tris = std::move(tris);
+  out->face_plane = std::move(face_plane);
+  return out->tris.size();
+}
+
+void perturb(RawMesh& mesh, const Shape& shape, double sigma, int holes, Rng& rng) {
+  (void)shape;
+  if (sigma > 0)
+    for (Vec3& p : mesh.positions) p += sigma * Vec3(rng.normal(), rng.normal(), rng.normal());
+  if (holes <= 0 || mesh.tris.empty()) return;
+  std::vector<Vec3> centroid(mesh.tris.size());
+  for (size_t f = 0; f < mesh.tris.size(); ++f) {
+    const auto& t = mesh.tris[f];
+    centroid[f] = (mesh.positions[static_cast<size_t>(t[0])] + mesh.positions[static_cast<size_t>(t[1])] +
+                   mesh.positions[static_cast<size_t>(t[2])]) / 3.0;
+  }
+  std::vector<uint8_t> drop(mesh.tris.size(), 0);
+  for (int h = 0; h < holes; ++h) {
+    const size_t c = static_cast<size_t>(rng.uniform_int(0, static_cast<int>(mesh.tris.size()) - 1));
+    const double r2 = std::pow(rng.uniform(0.3, 0.8), 2);
+    for (size_t f = 0; f < mesh.tris.size(); ++f)
+      if ((centroid[f] - centroid[c]).squaredNorm() < r2) drop[f] = 1;
+  }
+  size_t w = 0;
+  for (size_t f = 0; f < mesh.tris.size(); ++f) {
+    if (drop[f]) continue;
+    mesh.tris[w] = mesh.tris[f];
+    mesh.face_plane[w] = mesh.face_plane[f];
+    ++w;
+  }
+  mesh.tris.resize(w);
+  mesh.face_plane.resize(w);
+}
+
+}  // namespace texdefrag::synth::detail
