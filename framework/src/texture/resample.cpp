@@ -1,0 +1,899 @@
+// Texture resampling of the output atlas: the texture transfer step shared by Liu et al. 2024
+// ("planar feature-preserving texture defragmentation", Remote Sensing) and the M-method
+// (Maggiordomo et al. 2021, "Texture defragmentation for photo-reconstructed 3D models"): every
+// output triangle is rasterised on its output page and its texels are fetched from the input page
+// through the triangle's affine map; faces moved by whole texels (and multiples of 90 degrees) are
+// copied bit-exact; the background is filled by pull-push (Gortler et al. 1996, "The Lumigraph",
+// as the M-method does) or by dilation.
+//
+// Conventions (docs/texture.md): texel space has y up, texel (i, j) (column, row from the top) of a
+// W x H page covers [i, i+1] x [H-j-1, H-j] and its centre is (i + 0.5, H - j - 0.5). Input
+// sampling works in "grid" coordinates where integers are texel centres: gx = u - 0.5,
+// gy = H - v - 0.5.
+#include "texdefrag/texture/resample.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <cstring>
+#include <exception>
+#include <limits>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+namespace texdefrag {
+namespace {
+
+/// Texels: a face map is an exact copy when all three corners agree with the snapped
+/// rotation + integer translation to within this distance. note: any error below ~1e-3 texel would
+/// round to the same bytes with bilinear filtering anyway; 1e-6 leaves room for OBJ round-trips.
+constexpr double kCopyTolerance = 1e-6;
+/// L-infinity radius (texels) of the conservative border: every texel whose centre is closer than
+/// this to a triangle gets colour. note: bilinear lookups at a point p read the texels whose
+/// centres are less than 1 texel from p on both axes, so radius 1 is exactly what a lookup
+/// anywhere inside the chart needs (a half-texel "square touches" border misses texels along
+/// slanted edges).
+constexpr double kBorderRadius = 1.0;
+/// Largest stretch (input texels per output texel) for which border texels extrapolate the affine
+/// map; beyond it (slivers) they take the colour of the nearest point of the triangle instead.
+constexpr double kMaxExtrapolationStretch = 4.0;
+/// Relative threshold on |2 * area| / (longest edge)^2 below which an output triangle is degenerate.
+constexpr double kDegenerateRatio = 1e-12;
+/// Largest supported page side (texels), to keep index arithmetic in range.
+constexpr int kMaxPageSide = 1 << 16;
+
+constexpr uint8_t kEmpty = 0, kBorder = 1, kInterior = 2, kCoverMask = 3, kCopied = 4;
+
+[[noreturn]] void fail(const std::string& what) { throw StageError("texture.resample: " + what); }
+
+// ------------------------------------------------------------------------------------------------
+// Sampling (clamp-to-edge addressing)
+
+inline int clampi(long long v, int hi) { return static_cast<int>(v < 0 ? 0 : (v > hi ? hi : v)); }
+/// Clamps a grid coordinate before conversion to an integer (extrapolated maps can be huge).
+/// (NaN, from a near-singular map, goes to the low edge.)
+inline double clamp_grid(double g, int size) {
+  const double hi = static_cast<double>(size) + 3.0;
+  return g > -4.0 ? (g < hi ? g : hi) : -4.0;
+}
+
+/// floor() of a clamped grid coordinate (>= -4): truncation of a positive shift, much cheaper
+/// than std::floor without SSE4.1.
+inline int ifloor(double g) { return static_cast<int>(g + 16.0) - 16; }
+
+/// Rounds to the nearest byte value, clamping to [0, 255] (NaN gives 0).
+inline uint8_t to_byte(float v) {
+  const float r = v + 0.5f;
+  if (!(r > 0.f)) return 0;
+  if (r >= 255.f) return 255;
+  return static_cast<uint8_t>(static_cast<int>(r));
+}
+
+inline float catmull_rom(float t, int k) {
+  // weights of taps -1, 0, 1, 2 at fractional position t in [0, 1)
+  const float t2 = t * t, t3 = t2 * t;
+  switch (k) {
+    case 0: return 0.5f * (-t3 + 2.f * t2 - t);
+    case 1: return 0.5f * (3.f * t3 - 5.f * t2 + 2.f);
+    case 2: return 0.5f * (-3.f * t3 + 4.f * t2 + t);
+    default: return 0.5f * (t3 - t2);
+  }
+}
+
+template <int C>
+struct Sampler {
+  const uint8_t* px = nullptr;
+  int w = 0, h = 0;
+
+  const uint8_t* texel(int x, int y) const {
+    return px + (static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x)) * C;
+  }
+
+  void nearest(double gx, double gy, uint8_t* out) const {
+    const int x = clampi(ifloor(clamp_grid(gx, w) + 0.5), w - 1);
+    const int y = clampi(ifloor(clamp_grid(gy, h) + 0.5), h - 1);
+    std::memcpy(out, texel(x, y), C);
+  }
+
+  void bilinear(double gx, double gy, uint8_t* out) const {
+    gx = clamp_grid(gx, w);
+    gy = clamp_grid(gy, h);
+    const int x0 = ifloor(gx), y0 = ifloor(gy);
+    const float fx = static_cast<float>(gx - x0), fy = static_cast<float>(gy - y0);
+    const int xa = clampi(x0, w - 1), xb = clampi(x0 + 1, w - 1);
+    const int ya = clampi(y0, h - 1), yb = clampi(y0 + 1, h - 1);
+    const uint8_t *p00 = texel(xa, ya), *p10 = texel(xb, ya), *p01 = texel(xa, yb), *p11 = texel(xb, yb);
+    for (int c = 0; c < C; ++c) {
+      const float top = static_cast<float>(p00[c]) + fx * static_cast<float>(p10[c] - p00[c]);
+      const float bot = static_cast<float>(p01[c]) + fx * static_cast<float>(p11[c] - p01[c]);
+      out[c] = to_byte(top + fy * (bot - top));
+    }
+  }
+
+  void bicubic(double gx, double gy, uint8_t* out) const {
+    gx = clamp_grid(gx, w);
+    gy = clamp_grid(gy, h);
+    const int x0 = ifloor(gx), y0 = ifloor(gy);
+    const float tx = static_cast<float>(gx - x0), ty = static_cast<float>(gy - y0);
+    int xs[4], ys[4];
+    float wx[4], wy[4];
+    for (int k = 0; k < 4; ++k) {
+      xs[k] = clampi(x0 - 1 + k, w - 1);
+      ys[k] = clampi(y0 - 1 + k, h - 1);
+      wx[k] = catmull_rom(tx, k);
+      wy[k] = catmull_rom(ty, k);
+    }
+    float acc[C] = {};
+    for (int b = 0; b < 4; ++b) {
+      float row[C] = {};
+      for (int a = 0; a < 4; ++a) {
+        const uint8_t* p = texel(xs[a], ys[b]);
+        for (int c = 0; c < C; ++c) row[c] += wx[a] * static_cast<float>(p[c]);
+      }
+      for (int c = 0; c < C; ++c) acc[c] += wy[b] * row[c];
+    }
+    for (int c = 0; c < C; ++c) out[c] = to_byte(acc[c]);
+  }
+
+  void sample(Filter f, double gx, double gy, uint8_t* out) const {
+    switch (f) {
+      case Filter::Nearest: nearest(gx, gy, out); break;
+      case Filter::Bilinear: bilinear(gx, gy, out); break;
+      case Filter::Bicubic: bicubic(gx, gy, out); break;
+    }
+  }
+};
+
+// ------------------------------------------------------------------------------------------------
+// Per-face geometry
+
+/// Affine map from output texel indices (i, j) to input grid coordinates: g = a_i i + a_j j + a_0.
+struct GridMap {
+  double xi = 0, xj = 0, x0 = 0;
+  double yi = 0, yj = 0, y0 = 0;
+};
+
+/// Exact copy map in integers: input column = ci i + cj j + c0, input row = ri i + rj j + r0.
+struct CopyMap {
+  long long ci = 0, cj = 0, c0 = 0, ri = 0, rj = 0, r0 = 0;
+};
+
+struct FaceJob {
+  int face = -1;
+  int in_page = -1;
+  std::array<Vec2, 3> out, in;  // texel space, y up
+};
+
+/// Finds a rotation by a multiple of 90 degrees R and an integer translation t with
+/// in_k = R out_k + t for the three corners (within kCopyTolerance). Returns false if none.
+bool find_copy_map(const std::array<Vec2, 3>& out, const std::array<Vec2, 3>& in, int in_h, int out_h,
+                   CopyMap& map) {
+  static const int kRot[4][2][2] = {{{1, 0}, {0, 1}}, {{0, -1}, {1, 0}}, {{-1, 0}, {0, -1}}, {{0, 1}, {-1, 0}}};
+  for (const auto& R : kRot) {
+    auto apply = [&](const Vec2& p) {
+      return Vec2(R[0][0] * p.x() + R[0][1] * p.y(), R[1][0] * p.x() + R[1][1] * p.y());
+    };
+    const Vec2 t = in[0] - apply(out[0]);
+    const double tx = std::round(t.x()), ty = std::round(t.y());
+    if (!(std::abs(tx) < 1e9 && std::abs(ty) < 1e9)) continue;
+    bool ok = true;
+    for (int k = 0; k < 3 && ok; ++k) {
+      const Vec2 q = apply(out[static_cast<size_t>(k)]) + Vec2(tx, ty);
+      const Vec2& a = in[static_cast<size_t>(k)];
+      ok = std::abs(q.x() - a.x()) <= kCopyTolerance && std::abs(q.y() - a.y()) <= kCopyTolerance;
+    }
+    if (!ok) continue;
+    // u = R00 (i + 1/2) + R01 (Ho - j - 1/2) + tx; column = u - 1/2, row = Hi - v - 1/2 (all exact
+    // integers: R maps (odd, odd)/2 to (odd, odd)/2).
+    const long long Ho = out_h, Hi = in_h, itx = static_cast<long long>(tx), ity = static_cast<long long>(ty);
+    map.ci = R[0][0];
+    map.cj = -R[0][1];
+    map.c0 = (R[0][0] + R[0][1] * (2 * Ho - 1) + 2 * itx - 1) / 2;
+    map.ri = -R[1][0];
+    map.rj = R[1][1];
+    map.r0 = (2 * Hi - 1 - R[1][0] - R[1][1] * (2 * Ho - 1) - 2 * ity) / 2;
+    return true;
+  }
+  return false;
+}
+
+/// Closest point of triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
+Vec2 closest_on_triangle(const Vec2& p, const Vec2& a, const Vec2& b, const Vec2& c) {
+  const Vec2 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec2 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
+  const Vec2 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  const double denom = va + vb + vc;
+  if (!(std::abs(denom) > 0)) return a;
+  return a + ab * (vb / denom) + ac * (vc / denom);
+}
+
+// ------------------------------------------------------------------------------------------------
+// Output page canvas
+
+struct Canvas {
+  Image* img = nullptr;
+  int w = 0, h = 0;
+  std::vector<uint8_t> state;  ///< kEmpty/kBorder/kInterior, | kCopied
+  std::vector<float> dist;     ///< border texels: L-inf distance to the triangle that wrote them
+
+  size_t index(int i, int j) const { return static_cast<size_t>(j) * static_cast<size_t>(w) + static_cast<size_t>(i); }
+};
+
+struct PageStats {
+  size_t faces_copied = 0, faces_resampled = 0;
+};
+
+/// The interval [lo, hi] of integers i in [wlo, whi] where pred(i) holds, for pred = "all three
+/// edge functions ei[k] i + rk[k] exceed -offset" (up to ties, which pred settles exactly). The
+/// roots give the interval to within rounding; its ends are then moved until pred agrees.
+/// Returns false when the interval is empty.
+template <class Pred>
+bool span(const double ei[3], const double rk[3], double offset, int wlo, int whi, const Pred& pred, int& lo, int& hi) {
+  double a = wlo, b = whi;
+  for (int k = 0; k < 3; ++k) {
+    const double c = rk[k] + offset;  // ei i + c > 0
+    if (ei[k] > 0) a = std::max(a, std::floor(-c / ei[k]) + 1);
+    else if (ei[k] < 0) b = std::min(b, std::ceil(-c / ei[k]) - 1);
+    else if (!(c >= 0)) return false;
+  }
+  const auto clampw = [&](double v) { return static_cast<int>(std::min(std::max(v, static_cast<double>(wlo)), static_cast<double>(whi))); };
+  lo = clampw(a);
+  hi = clampw(b);
+  if (lo > hi) {
+    // rounding may have emptied a one-texel interval
+    if (pred(lo)) hi = lo;
+    else if (pred(hi)) lo = hi;
+    else return false;
+  }
+  while (lo > wlo && pred(lo - 1)) --lo;
+  while (lo <= hi && !pred(lo)) ++lo;
+  if (lo > hi) return false;
+  while (hi < whi && pred(hi + 1)) ++hi;
+  while (hi > lo && !pred(hi)) --hi;
+  return true;
+}
+
+/// Rasterises one face on the canvas. Interior texels (centre inside, top-left tie rule) are
+/// always written; border texels (centre within kBorderRadius) only where no interior texel is and
+/// no other triangle is nearer.
+template <int C>
+void render_face(const FaceJob& job, const Sampler<C>& src, Filter filter, Canvas& cv, PageStats& st) {
+  const auto& o = job.out;
+  const double Wd = cv.w, Hd = cv.h;
+  const Vec2 e1 = o[1] - o[0], e2 = o[2] - o[0];
+  const double det = e1.x() * e2.y() - e1.y() * e2.x();
+  const double longest2 = std::max({e1.squaredNorm(), e2.squaredNorm(), (o[2] - o[1]).squaredNorm()});
+  const bool degenerate = !(std::abs(det) > kDegenerateRatio * longest2);
+
+  // Texel index window: centres within kBorderRadius of the bounding box.
+  const double xmin = std::min({o[0].x(), o[1].x(), o[2].x()}), xmax = std::max({o[0].x(), o[1].x(), o[2].x()});
+  const double ymin = std::min({o[0].y(), o[1].y(), o[2].y()}), ymax = std::max({o[0].y(), o[1].y(), o[2].y()});
+  const double r = kBorderRadius;
+  const auto window = [](double v, double hi) { return std::min(std::max(v, -1.0), hi); };
+  const int ilo = static_cast<int>(std::floor(window(xmin - r - 0.5, Wd)) + 1);
+  const int ihi = static_cast<int>(std::ceil(window(xmax + r - 0.5, Wd)) - 1);
+  const int jlo = static_cast<int>(std::floor(window(Hd - 0.5 - ymax - r, Hd)) + 1);
+  const int jhi = static_cast<int>(std::ceil(window(Hd - 0.5 - ymin + r, Hd)) - 1);
+
+  const auto bbox_dist = [&](double cx, double cy) {
+    return std::max({xmin - cx, cx - xmax, ymin - cy, cy - ymax, 0.0});
+  };
+
+  if (degenerate) {
+    // No interior. Border texels near the point/segment take the colour at the input centroid.
+    st.faces_resampled++;
+    uint8_t colour[C] = {};
+    const Vec2 ci = (job.in[0] + job.in[1] + job.in[2]) / 3.0;
+    src.sample(filter, ci.x() - 0.5, src.h - ci.y() - 0.5, colour);
+    // Distance test against the longest edge's supporting line plus the bounding box (exact for a
+    // segment; a single point has only the box).
+    int k0 = 0;
+    double best = -1;
+    for (int k = 0; k < 3; ++k) {
+      const double l2 = (o[static_cast<size_t>((k + 1) % 3)] - o[static_cast<size_t>(k)]).squaredNorm();
+      if (l2 > best) { best = l2; k0 = k; }
+    }
+    const Vec2 a = o[static_cast<size_t>(k0)], d = o[static_cast<size_t>((k0 + 1) % 3)] - a;
+    const double nx = -d.y(), ny = d.x(), nl1 = std::abs(nx) + std::abs(ny);
+    for (int j = std::max(jlo, 0); j <= std::min(jhi, cv.h - 1); ++j) {
+      const double cy = Hd - j - 0.5;
+      for (int i = std::max(ilo, 0); i <= std::min(ihi, cv.w - 1); ++i) {
+        const double cx = i + 0.5;
+        double dd = bbox_dist(cx, cy);
+        if (nl1 > 0) dd = std::max(dd, std::abs(nx * (cx - a.x()) + ny * (cy - a.y())) / nl1);
+        if (!(dd < r)) continue;
+        const size_t idx = cv.index(i, j);
+        const uint8_t s = cv.state[idx] & kCoverMask;
+        if (s == kInterior || (s == kBorder && cv.dist[idx] <= dd)) continue;
+        cv.state[idx] = kBorder;
+        cv.dist[idx] = static_cast<float>(dd);
+        std::memcpy(cv.img->at(i, j), colour, C);
+      }
+    }
+    return;
+  }
+
+  // Edge functions, oriented so the interior is positive, normalised by the L1 norm of the normal
+  // so -E is the L-infinity distance to the edge's line; written in texel indices:
+  // E(i, j) = ei i + ej j + e0 with centre (i + 0.5, H - j - 0.5).
+  const double sgn = det > 0 ? 1.0 : -1.0;
+  double ei[3], ej[3], e0[3];
+  bool tie[3];
+  for (int k = 0; k < 3; ++k) {
+    const Vec2& v = o[static_cast<size_t>(k)];
+    const Vec2 e = o[static_cast<size_t>((k + 1) % 3)] - v;
+    double nx = -e.y() * sgn, ny = e.x() * sgn;
+    const double l1 = std::abs(nx) + std::abs(ny);
+    nx /= l1;
+    ny /= l1;
+    const double c = -(nx * v.x() + ny * v.y());
+    ei[k] = nx;
+    ej[k] = -ny;
+    e0[k] = nx * 0.5 + ny * (Hd - 0.5) + c;
+    // note: of two triangles sharing an edge exactly one owns texel centres on it (top-left rule).
+    tie[k] = nx > 0 || (nx == 0 && ny > 0);
+  }
+
+  // Affine map output texel space -> input texel space: in = A out + t.
+  const auto& a = job.in;
+  const Vec2 f1 = a[1] - a[0], f2 = a[2] - a[0];
+  const double inv = 1.0 / det;
+  // A = [f1 f2] [e1 e2]^-1
+  const double A00 = (f1.x() * e2.y() - f2.x() * e1.y()) * inv, A01 = (f2.x() * e1.x() - f1.x() * e2.x()) * inv;
+  const double A10 = (f1.y() * e2.y() - f2.y() * e1.y()) * inv, A11 = (f2.y() * e1.x() - f1.y() * e2.x()) * inv;
+  const double t0 = a[0].x() - (A00 * o[0].x() + A01 * o[0].y());
+  const double t1 = a[0].y() - (A10 * o[0].x() + A11 * o[0].y());
+  const double Hi = src.h;
+  GridMap g;
+  g.xi = A00;
+  g.xj = -A01;
+  g.x0 = A00 * 0.5 + A01 * (Hd - 0.5) + t0 - 0.5;
+  g.yi = -A10;
+  g.yj = A11;
+  g.y0 = Hi - 0.5 - (A10 * 0.5 + A11 * (Hd - 0.5) + t1);
+  // Largest singular value of A (stretch), from the Frobenius norm and determinant.
+  const double fro2 = A00 * A00 + A01 * A01 + A10 * A10 + A11 * A11, dA = A00 * A11 - A01 * A10;
+  const double stretch = std::sqrt(0.5 * (fro2 + std::sqrt(std::max(fro2 * fro2 - 4 * dA * dA, 0.0))));
+  const bool extrapolate = stretch <= kMaxExtrapolationStretch;
+
+  CopyMap cm;
+  const bool copy = find_copy_map(job.out, job.in, src.h, cv.h, cm);
+  if (copy) st.faces_copied++;
+  else st.faces_resampled++;
+  const uint8_t written_state_bits = copy ? kCopied : 0;
+
+  // Along a row every edge function is monotone in i, so both the interior and the border are
+  // intervals: find them from the roots, then settle their ends with the exact predicates.
+  const int wlo = std::max(ilo, 0), whi = std::min(ihi, cv.w - 1);
+  for (int j = std::max(jlo, 0); j <= std::min(jhi, cv.h - 1); ++j) {
+    const double rk[3] = {ej[0] * j + e0[0], ej[1] * j + e0[1], ej[2] * j + e0[2]};
+    const auto E = [&](int k, int i) { return ei[k] * i + rk[k]; };
+    const auto inside = [&](int i) {
+      for (int k = 0; k < 3; ++k) {
+        const double e = E(k, i);
+        if (!(e > 0 || (e == 0 && tie[k]))) return false;
+      }
+      return true;
+    };
+    const auto near = [&](int i) { return E(0, i) > -r && E(1, i) > -r && E(2, i) > -r; };
+    int blo = wlo, bhi = whi, ilo_row = wlo, ihi_row = whi;
+    if (!span(ei, rk, r, wlo, whi, near, blo, bhi)) continue;
+    const bool has_interior = span(ei, rk, 0.0, blo, bhi, inside, ilo_row, ihi_row);
+    if (!has_interior) {
+      ilo_row = bhi + 1;
+      ihi_row = bhi;
+    }
+    const double cy = Hd - j - 0.5;
+    uint8_t* row_px = cv.img->at(0, j);
+    uint8_t* row_state = &cv.state[cv.index(0, j)];
+    float* row_dist = &cv.dist[cv.index(0, j)];
+    const auto border = [&](int i) {
+      const uint8_t s = row_state[i] & kCoverMask;
+      if (s == kInterior) return;
+      const double dd = std::max(std::max(std::max(-E(0, i), -E(1, i)), std::max(-E(2, i), 0.0)), bbox_dist(i + 0.5, cy));
+      if (!(dd < r) || (s == kBorder && row_dist[i] <= dd)) return;
+      row_state[i] = static_cast<uint8_t>(kBorder | written_state_bits);
+      row_dist[i] = static_cast<float>(dd);
+      uint8_t* dst = row_px + static_cast<size_t>(i) * C;
+      if (copy) {
+        std::memcpy(dst, src.texel(clampi(cm.ci * i + cm.cj * j + cm.c0, src.w - 1),
+                                   clampi(cm.ri * i + cm.rj * j + cm.r0, src.h - 1)), C);
+      } else if (extrapolate) {
+        src.sample(filter, g.xi * i + g.xj * j + g.x0, g.yi * i + g.yj * j + g.y0, dst);
+      } else {
+        const Vec2 p = closest_on_triangle(Vec2(i + 0.5, cy), o[0], o[1], o[2]);
+        const double u = A00 * p.x() + A01 * p.y() + t0, v = A10 * p.x() + A11 * p.y() + t1;
+        src.sample(filter, u - 0.5, Hi - v - 0.5, dst);
+      }
+    };
+    for (int i = blo; i < ilo_row; ++i) border(i);
+    if (ilo_row <= ihi_row) {
+      std::memset(row_state + ilo_row, kInterior | written_state_bits, static_cast<size_t>(ihi_row - ilo_row + 1));
+      if (copy) {
+        const long long cj = cm.cj * j + cm.c0, rj = cm.rj * j + cm.r0;
+        for (int i = ilo_row; i <= ihi_row; ++i)
+          std::memcpy(row_px + static_cast<size_t>(i) * C,
+                      src.texel(clampi(cm.ci * i + cj, src.w - 1), clampi(cm.ri * i + rj, src.h - 1)), C);
+      } else {
+        const double gx = g.xj * j + g.x0, gy = g.yj * j + g.y0;
+        switch (filter) {
+          case Filter::Nearest:
+            for (int i = ilo_row; i <= ihi_row; ++i) src.nearest(g.xi * i + gx, g.yi * i + gy, row_px + static_cast<size_t>(i) * C);
+            break;
+          case Filter::Bilinear:
+            for (int i = ilo_row; i <= ihi_row; ++i) src.bilinear(g.xi * i + gx, g.yi * i + gy, row_px + static_cast<size_t>(i) * C);
+            break;
+          case Filter::Bicubic:
+            for (int i = ilo_row; i <= ihi_row; ++i) src.bicubic(g.xi * i + gx, g.yi * i + gy, row_px + static_cast<size_t>(i) * C);
+            break;
+        }
+      }
+    }
+    for (int i = std::max(ihi_row + 1, blo); i <= bhi; ++i) border(i);
+  }
+}
+
+// ------------------------------------------------------------------------------------------------
+// Gutter fill
+
+/// Pull-push: covered texels stay as they are; every other texel gets the colour of a pyramid of
+/// averages of covered texels (pull: 2x2 averages of available texels; push: bilinear upsampling
+/// of the coarser level into texels that had no data). No covered texel: the page is unchanged.
+void pull_push(Image& img, const std::vector<uint8_t>& state) {
+  const int C = img.channels;
+  struct Level {
+    int w = 0, h = 0;
+    std::vector<float> col;  // w * h * C
+    std::vector<uint8_t> has;
+  };
+  std::vector<Level> levels;
+  // Level 1 from the page bytes.
+  auto make_coarse = [&](int w, int h, auto&& has_at, auto&& col_at) {
+    Level L;
+    L.w = (w + 1) / 2;
+    L.h = (h + 1) / 2;
+    L.col.assign(static_cast<size_t>(L.w) * static_cast<size_t>(L.h) * static_cast<size_t>(C), 0.f);
+    L.has.assign(static_cast<size_t>(L.w) * static_cast<size_t>(L.h), 0);
+    for (int y = 0; y < L.h; ++y)
+      for (int x = 0; x < L.w; ++x) {
+        float acc[4] = {0, 0, 0, 0};
+        int n = 0;
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dx = 0; dx < 2; ++dx) {
+            const int fx = 2 * x + dx, fy = 2 * y + dy;
+            if (fx >= w || fy >= h || !has_at(fx, fy)) continue;
+            col_at(fx, fy, acc);
+            ++n;
+          }
+        if (n == 0) continue;
+        const size_t ci = static_cast<size_t>(y) * static_cast<size_t>(L.w) + static_cast<size_t>(x);
+        L.has[ci] = 1;
+        for (int c = 0; c < C; ++c) L.col[ci * static_cast<size_t>(C) + static_cast<size_t>(c)] = acc[c] / static_cast<float>(n);
+      }
+    return L;
+  };
+  const int W = img.width, H = img.height;
+  levels.push_back(make_coarse(
+      W, H, [&](int x, int y) { return state[static_cast<size_t>(y) * static_cast<size_t>(W) + static_cast<size_t>(x)] != 0; },
+      [&](int x, int y, float* acc) {
+        const uint8_t* p = img.at(x, y);
+        for (int c = 0; c < C; ++c) acc[c] += static_cast<float>(p[c]);
+      }));
+  while (levels.back().w > 1 || levels.back().h > 1) {
+    const Level& F = levels.back();
+    Level L = make_coarse(
+        F.w, F.h, [&](int x, int y) { return F.has[static_cast<size_t>(y) * static_cast<size_t>(F.w) + static_cast<size_t>(x)] != 0; },
+        [&](int x, int y, float* acc) {
+          const float* p = &F.col[(static_cast<size_t>(y) * static_cast<size_t>(F.w) + static_cast<size_t>(x)) * static_cast<size_t>(C)];
+          for (int c = 0; c < C; ++c) acc[c] += p[c];
+        });
+    levels.push_back(std::move(L));
+  }
+  if (!levels.back().has[0]) return;  // nothing covered
+
+  // Push: every fine texel without data takes the bilinear upsampling of the (fully filled) coarser
+  // level P at its position ((x + 0.5) / 2 - 0.5, (y + 0.5) / 2 - 0.5). Per fine row the two coarse
+  // rows are blended once (when the row needs anything), then each texel blends horizontally.
+  std::vector<float> blend;
+  auto push = [&](const Level& P, int w, int h, auto&& needs, auto&& store) {
+    blend.resize(static_cast<size_t>(P.w) * static_cast<size_t>(C));
+    for (int y = 0; y < h; ++y) {
+      bool blended = false;
+      const double gy = std::max((y + 0.5) / 2 - 0.5, 0.0);
+      const int y0 = std::min(static_cast<int>(gy), P.h - 1), y1 = std::min(y0 + 1, P.h - 1);
+      const float fy = static_cast<float>(gy - y0);
+      for (int x = 0; x < w; ++x) {
+        if (!needs(x, y)) continue;
+        if (!blended) {
+          const float* r0 = &P.col[static_cast<size_t>(y0) * static_cast<size_t>(P.w) * static_cast<size_t>(C)];
+          const float* r1 = &P.col[static_cast<size_t>(y1) * static_cast<size_t>(P.w) * static_cast<size_t>(C)];
+          for (size_t k = 0; k < blend.size(); ++k) blend[k] = r0[k] + fy * (r1[k] - r0[k]);
+          blended = true;
+        }
+        const double gx = std::max((x + 0.5) / 2 - 0.5, 0.0);
+        const int x0 = std::min(static_cast<int>(gx), P.w - 1), x1 = std::min(x0 + 1, P.w - 1);
+        const float fx = static_cast<float>(gx - x0);
+        const float* a = &blend[static_cast<size_t>(x0) * static_cast<size_t>(C)];
+        const float* b = &blend[static_cast<size_t>(x1) * static_cast<size_t>(C)];
+        float v[4];
+        for (int c = 0; c < C; ++c) v[c] = a[c] + fx * (b[c] - a[c]);
+        store(x, y, v);
+      }
+    }
+  };
+  for (size_t l = levels.size() - 1; l-- > 0;) {
+    Level& L = levels[l];
+    const auto at = [&L](int x, int y) { return static_cast<size_t>(y) * static_cast<size_t>(L.w) + static_cast<size_t>(x); };
+    push(levels[l + 1], L.w, L.h, [&](int x, int y) { return !L.has[at(x, y)]; },
+         [&](int x, int y, const float* v) {
+           const size_t ci = at(x, y);
+           std::copy(v, v + C, &L.col[ci * static_cast<size_t>(C)]);
+           L.has[ci] = 1;
+         });
+  }
+  push(levels[0], W, H, [&](int x, int y) { return state[static_cast<size_t>(y) * static_cast<size_t>(W) + static_cast<size_t>(x)] == 0; },
+       [&](int x, int y, const float* v) {
+         uint8_t* p = img.at(x, y);
+         for (int c = 0; c < C; ++c) p[c] = to_byte(v[c]);
+       });
+}
+
+/// Dilation: texels up to `width` steps (8-neighbourhood) from covered texels take the average of
+/// their already coloured neighbours, ring by ring; the rest keep the background already there.
+void dilate(Image& img, const std::vector<uint8_t>& state, int width) {
+  const int W = img.width, H = img.height, C = img.channels;
+  std::vector<uint8_t> filled(state.size());
+  for (size_t i = 0; i < state.size(); ++i) filled[i] = state[i] != 0 ? 1 : 0;
+  std::vector<int> ring, next;
+  std::vector<uint8_t> queued(state.size(), 0);
+  auto idx = [&](int x, int y) { return static_cast<size_t>(y) * static_cast<size_t>(W) + static_cast<size_t>(x); };
+  auto push_neighbours_of = [&](int x, int y, std::vector<int>& out) {
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int nx = x + dx, ny = y + dy;
+        if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
+        const size_t n = idx(nx, ny);
+        if (filled[n] || queued[n]) continue;
+        queued[n] = 1;
+        out.push_back(static_cast<int>(n));
+      }
+  };
+  if (width <= 0) return;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (filled[idx(x, y)]) push_neighbours_of(x, y, ring);
+  std::vector<uint8_t> values;
+  for (int step = 0; step < width && !ring.empty(); ++step) {
+    values.assign(ring.size() * static_cast<size_t>(C), 0);
+    for (size_t k = 0; k < ring.size(); ++k) {
+      const int x = ring[k] % W, y = ring[k] / W;
+      float acc[4] = {0, 0, 0, 0};
+      int n = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int nx = x + dx, ny = y + dy;
+          if (nx < 0 || ny < 0 || nx >= W || ny >= H || !filled[idx(nx, ny)]) continue;
+          const uint8_t* p = img.at(nx, ny);
+          for (int c = 0; c < C; ++c) acc[c] += static_cast<float>(p[c]);
+          ++n;
+        }
+      for (int c = 0; c < C; ++c) values[k * static_cast<size_t>(C) + static_cast<size_t>(c)] = to_byte(acc[c] / static_cast<float>(n));
+    }
+    for (size_t k = 0; k < ring.size(); ++k) {
+      const size_t n = static_cast<size_t>(ring[k]);
+      filled[n] = 1;
+      std::memcpy(img.at(ring[k] % W, ring[k] / W), &values[k * static_cast<size_t>(C)], static_cast<size_t>(C));
+    }
+    next.clear();
+    for (int n : ring) push_neighbours_of(n % W, n / W, next);
+    ring.swap(next);
+  }
+}
+
+// ------------------------------------------------------------------------------------------------
+// Channel conversion: every input page is brought to the output channel count.
+
+Image convert_channels(const Image& in, int C) {
+  Image out;
+  out.width = in.width;
+  out.height = in.height;
+  out.channels = C;
+  const size_t n = static_cast<size_t>(in.width) * static_cast<size_t>(in.height);
+  out.pixels.resize(n * static_cast<size_t>(C));
+  const int ci = in.channels;
+  const bool in_gray = ci <= 2, in_alpha = ci == 2 || ci == 4;
+  for (size_t p = 0; p < n; ++p) {
+    const uint8_t* s = &in.pixels[p * static_cast<size_t>(ci)];
+    uint8_t* d = &out.pixels[p * static_cast<size_t>(C)];
+    const uint8_t alpha = in_alpha ? s[ci - 1] : 255;
+    if (C == 1) d[0] = s[0];
+    else if (C == 2) { d[0] = s[0]; d[1] = alpha; }
+    else {
+      for (int c = 0; c < 3; ++c) d[c] = in_gray ? s[0] : s[c];
+      if (C == 4) d[3] = alpha;
+    }
+  }
+  return out;
+}
+
+// ------------------------------------------------------------------------------------------------
+// Progress shared by the worker threads; only the calling thread talks to the callback.
+
+struct Progress {
+  const ProgressFn* fn = nullptr;
+  std::thread::id owner;
+  double total = 1;
+  std::atomic<size_t> done{0};
+  std::atomic<bool> cancelled{false};
+  double last = -1;
+
+  void report(double fraction) {
+    if (!*fn || cancelled || fraction <= last) return;
+    if (fraction < 1 && fraction - last < 0.001) return;
+    last = fraction;
+    if (!(*fn)("texture.resample", std::min(fraction, 1.0))) cancelled = true;
+  }
+  void tick(size_t units) {
+    const size_t d = done.fetch_add(units) + units;
+    if (std::this_thread::get_id() == owner) report(static_cast<double>(d) / total);
+  }
+};
+
+constexpr size_t kFacesPerTick = 2048;
+constexpr size_t kFillTexelsPerUnit = 64;
+
+struct PageTask {
+  std::vector<FaceJob> jobs;
+};
+
+template <int C>
+void render_page_jobs(const std::vector<FaceJob>& jobs, const std::vector<const Image*>& inputs, Filter filter,
+                      Canvas& cv, PageStats& st, Progress& prog) {
+  size_t since = 0;
+  for (const FaceJob& job : jobs) {
+    const Image& in = *inputs[static_cast<size_t>(job.in_page)];
+    Sampler<C> s;
+    s.px = in.pixels.data();
+    s.w = in.width;
+    s.h = in.height;
+    render_face<C>(job, s, filter, cv, st);
+    if (++since == kFacesPerTick) {
+      prog.tick(since);
+      since = 0;
+      if (prog.cancelled) return;
+    }
+  }
+  prog.tick(since);
+}
+
+void render_page(const PageTask& task, const std::vector<const Image*>& inputs, const ResampleOptions& opt,
+                 Image& out, ResampleStats& st, Progress& prog) {
+  const int C = out.channels;
+  Canvas cv;
+  cv.img = &out;
+  cv.w = out.width;
+  cv.h = out.height;
+  const size_t n = static_cast<size_t>(cv.w) * static_cast<size_t>(cv.h);
+  cv.state.assign(n, kEmpty);
+  cv.dist.assign(n, 0.f);
+  PageStats ps;
+  switch (C) {
+    case 1: render_page_jobs<1>(task.jobs, inputs, opt.filter, cv, ps, prog); break;
+    case 2: render_page_jobs<2>(task.jobs, inputs, opt.filter, cv, ps, prog); break;
+    case 3: render_page_jobs<3>(task.jobs, inputs, opt.filter, cv, ps, prog); break;
+    default: render_page_jobs<4>(task.jobs, inputs, opt.filter, cv, ps, prog); break;
+  }
+  if (prog.cancelled) return;
+  st.faces_copied = ps.faces_copied;
+  st.faces_resampled = ps.faces_resampled;
+  for (uint8_t s : cv.state) {
+    if (s & kCoverMask) st.texels_written++;
+    if (s & kCopied) st.texels_copied++;
+  }
+  switch (opt.fill) {
+    case GutterFill::None: break;
+    case GutterFill::Dilate: dilate(out, cv.state, opt.dilate_width); break;
+    case GutterFill::PullPush: pull_push(out, cv.state); break;
+  }
+  prog.tick(n / kFillTexelsPerUnit);
+}
+
+/// Finite and within 1e9 texels (keeps every product of coordinates far from overflow).
+bool sane(const Vec2& v) { return std::abs(v.x()) < 1e9 && std::abs(v.y()) < 1e9; }
+
+}  // namespace
+
+std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Image>& input_pages,
+                                  const Atlas& atlas, const Layout& layout, const ResampleOptions& options,
+                                  ResampleStats* stats, const ProgressFn& progress) {
+  // ---- validation
+  if (input_pages.size() != mesh.pages.size()) {
+    std::ostringstream s;
+    s << input_pages.size() << " input page images for " << mesh.pages.size() << " mesh pages";
+    fail(s.str());
+  }
+  if (atlas.face_chart.size() != mesh.faces.size() || atlas.face_wedge.size() != mesh.faces.size())
+    fail("atlas has " + std::to_string(atlas.face_chart.size()) + " faces, mesh has " + std::to_string(mesh.faces.size()));
+  if (options.fill == GutterFill::Dilate && options.dilate_width < 0)
+    fail("dilate_width = " + std::to_string(options.dilate_width) + " is negative");
+  for (size_t p = 0; p < layout.pages.size(); ++p) {
+    const auto& ps = layout.pages[p];
+    if (ps.width <= 0 || ps.height <= 0 || ps.width > kMaxPageSide || ps.height > kMaxPageSide)
+      fail("output page " + std::to_string(p) + " has size " + std::to_string(ps.width) + "x" +
+           std::to_string(ps.height) + " (expected 1.." + std::to_string(kMaxPageSide) + ")");
+  }
+  std::vector<char> page_used(mesh.pages.size(), 0);
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    const Face& F = mesh.faces[f];
+    const int chart = atlas.face_chart[f];
+    if (F.page == kNoPage && chart < 0) continue;
+    const std::string where = "face " + std::to_string(f) + " (OBJ line " + std::to_string(F.source_line) + ")";
+    if (F.page == kNoPage || chart < 0) fail(where + ": textured in only one of mesh and atlas");
+    if (F.page < 0 || static_cast<size_t>(F.page) >= mesh.pages.size()) fail(where + ": page " + std::to_string(F.page) + " out of range");
+    if (static_cast<size_t>(chart) >= layout.chart_page.size())
+      fail(where + ": chart " + std::to_string(chart) + " has no output page in the layout");
+    const int op = layout.chart_page[static_cast<size_t>(chart)];
+    if (op < 0 || static_cast<size_t>(op) >= layout.pages.size())
+      fail("chart " + std::to_string(chart) + ": output page " + std::to_string(op) + " out of range");
+    for (int k = 0; k < 3; ++k) {
+      const int w = atlas.face_wedge[f][static_cast<size_t>(k)];
+      if (w < 0 || static_cast<size_t>(w) >= layout.wedge_uv.size()) fail(where + ": wedge " + std::to_string(w) + " out of range");
+      if (!sane(layout.wedge_uv[static_cast<size_t>(w)])) fail(where + ": output UV is not finite or beyond 1e9 texels");
+      const int vt = F.vt[static_cast<size_t>(k)];
+      if (vt < 0 || static_cast<size_t>(vt) >= mesh.texcoords.size()) fail(where + ": texcoord index out of range");
+      if (!sane(mesh.corner_texel(f, k))) fail(where + ": input UV is not finite or beyond 1e9 texels");
+    }
+    page_used[static_cast<size_t>(F.page)] = 1;
+  }
+  int channels = 0;
+  for (size_t p = 0; p < input_pages.size(); ++p) {
+    const Image& im = input_pages[p];
+    if (!page_used[p] && im.empty()) continue;
+    const std::string where = "input page " + std::to_string(p) + " (" + mesh.pages[p].image_path + ")";
+    if (im.channels < 1 || im.channels > 4) fail(where + ": " + std::to_string(im.channels) + " channels (expected 1..4)");
+    if (im.width <= 0 || im.height <= 0 ||
+        im.pixels.size() != static_cast<size_t>(im.width) * static_cast<size_t>(im.height) * static_cast<size_t>(im.channels))
+      fail(where + ": empty or inconsistent image");
+    if (page_used[p] && (im.width != mesh.pages[p].width || im.height != mesh.pages[p].height))
+      fail(where + ": image is " + std::to_string(im.width) + "x" + std::to_string(im.height) + ", mesh page says " +
+           std::to_string(mesh.pages[p].width) + "x" + std::to_string(mesh.pages[p].height));
+    channels = std::max(channels, im.channels);
+  }
+  if (channels == 0) channels = 3;
+
+  // ---- inputs at the output channel count
+  std::vector<Image> converted(input_pages.size());
+  std::vector<const Image*> inputs(input_pages.size(), nullptr);
+  for (size_t p = 0; p < input_pages.size(); ++p) {
+    if (!page_used[p]) continue;
+    if (input_pages[p].channels == channels) {
+      inputs[p] = &input_pages[p];
+    } else {
+      converted[p] = convert_channels(input_pages[p], channels);
+      inputs[p] = &converted[p];
+    }
+  }
+
+  // ---- faces per output page, in face order
+  std::vector<PageTask> tasks(layout.pages.size());
+  size_t num_jobs = 0;
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    const int chart = atlas.face_chart[f];
+    if (chart < 0) continue;
+    FaceJob job;
+    job.face = static_cast<int>(f);
+    job.in_page = mesh.faces[f].page;
+    for (int k = 0; k < 3; ++k) {
+      job.out[static_cast<size_t>(k)] = layout.wedge_uv[static_cast<size_t>(atlas.face_wedge[f][static_cast<size_t>(k)])];
+      job.in[static_cast<size_t>(k)] = mesh.corner_texel(f, k);
+    }
+    tasks[static_cast<size_t>(layout.chart_page[static_cast<size_t>(chart)])].jobs.push_back(job);
+    ++num_jobs;
+  }
+
+  // ---- output pages
+  std::vector<Image> out(layout.pages.size());
+  size_t fill_units = 0;
+  for (size_t p = 0; p < out.size(); ++p) {
+    Image& im = out[p];
+    im.width = layout.pages[p].width;
+    im.height = layout.pages[p].height;
+    im.channels = channels;
+    const size_t n = static_cast<size_t>(im.width) * static_cast<size_t>(im.height);
+    im.pixels.resize(n * static_cast<size_t>(channels));
+    uint8_t bg[4];
+    const uint8_t* b = options.background;
+    if (channels == 1) bg[0] = b[0];
+    else if (channels == 2) { bg[0] = b[0]; bg[1] = b[3]; }
+    else std::memcpy(bg, b, static_cast<size_t>(channels));
+    for (size_t t = 0; t < n; ++t) std::memcpy(&im.pixels[t * static_cast<size_t>(channels)], bg, static_cast<size_t>(channels));
+    fill_units += n / kFillTexelsPerUnit;
+  }
+
+  // ---- render, pages in parallel; the calling thread reports progress
+  Progress prog;
+  prog.fn = &progress;
+  prog.owner = std::this_thread::get_id();
+  prog.total = static_cast<double>(std::max<size_t>(num_jobs + fill_units, 1));
+  prog.report(0);
+  if (prog.cancelled) throw Cancelled();
+
+  std::vector<ResampleStats> page_stats(out.size());
+  std::atomic<size_t> next{0};
+  std::mutex mtx;
+  std::condition_variable cv;
+  std::exception_ptr error;
+  size_t running = 0;
+  auto worker = [&]() {
+    try {
+      for (;;) {
+        const size_t p = next.fetch_add(1);
+        if (p >= out.size() || prog.cancelled) break;
+        render_page(tasks[p], inputs, options, out[p], page_stats[p], prog);
+      }
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(mtx);
+      if (!error) error = std::current_exception();
+      prog.cancelled = true;
+    }
+  };
+  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+  const size_t nthreads = std::min<size_t>(hw, out.size());
+  std::vector<std::thread> threads;
+  for (size_t t = 1; t < nthreads; ++t) {
+    {
+      std::lock_guard<std::mutex> lock(mtx);
+      ++running;
+    }
+    threads.emplace_back([&]() {
+      worker();
+      std::lock_guard<std::mutex> lock(mtx);
+      --running;
+      cv.notify_all();
+    });
+  }
+  worker();
+  {
+    std::unique_lock<std::mutex> lock(mtx);
+    while (running > 0) {
+      cv.wait_for(lock, std::chrono::milliseconds(20));
+      lock.unlock();
+      prog.report(static_cast<double>(prog.done.load()) / prog.total);
+      lock.lock();
+    }
+  }
+  for (auto& t : threads) t.join();
+  if (error) std::rethrow_exception(error);
+  if (prog.cancelled) throw Cancelled();
+  prog.report(1.0);
+  if (prog.cancelled) throw Cancelled();
+
+  if (stats) {
+    *stats = ResampleStats{};
+    for (const auto& s : page_stats) {
+      stats->texels_written += s.texels_written;
+      stats->texels_copied += s.texels_copied;
+      stats->faces_copied += s.faces_copied;
+      stats->faces_resampled += s.faces_resampled;
+    }
+  }
+  return out;
+}
+
+}  // namespace texdefrag
