@@ -59,8 +59,8 @@ TEST(Topology, WeldsDuplicatedPositionsAndCountsEdges) {
   EXPECT_EQ(t.report.boundary_edges, 4u);
   EXPECT_EQ(t.report.non_manifold_edges, 0u);
   EXPECT_EQ(t.report.degenerate_faces, 0u);
-  EXPECT_EQ(t.opposite_face(0, 1), 1);  // local edge 1 of face 0 is (1,1)-(0,0)... diagonal
-  EXPECT_EQ(t.opposite_face(0, 0), -1);
+  EXPECT_EQ(t.opposite_face(0, 2), 1);   // local edge 2 of face 0 joins p3 and p0: the diagonal
+  EXPECT_EQ(t.opposite_face(0, 0), -1);  // p0-p1: boundary
 }
 
 TEST(Topology, ReportsNonManifoldDegenerateAndDuplicateFaces) {
@@ -155,7 +155,7 @@ TEST(Charts, UntexturedFacesHaveNoChart) {
 }
 
 TEST(Charts, FragmentedGridHasOneChartPerTriangle) {
-  const TexturedMesh m = testing::fragmented_grid_mesh(3, 2, 64, "x.png");
+  const TexturedMesh m = texdefrag::testing::fragmented_grid_mesh(3, 2, 64, "x.png");
   const Topology t = build_topology(m);
   const ChartSet cs = build_charts(m, t);
   EXPECT_EQ(cs.atlas.num_charts, 12);
@@ -165,7 +165,7 @@ TEST(Charts, FragmentedGridHasOneChartPerTriangle) {
 }
 
 TEST(Charts, CompactRenumbersCharts) {
-  const TexturedMesh m = testing::fragmented_grid_mesh(2, 1, 64, "x.png");
+  const TexturedMesh m = texdefrag::testing::fragmented_grid_mesh(2, 1, 64, "x.png");
   const Topology t = build_topology(m);
   ChartSet cs = build_charts(m, t);
   Atlas a = cs.atlas;
@@ -191,7 +191,7 @@ TEST(Distortion, ScaleAndFlip) {
 }
 
 TEST(ChartsReal, InvariantsOnRealTiles) {
-  const auto models = testing::real_models(25000);
+  const auto models = texdefrag::testing::real_models(25000);
   if (models.empty()) GTEST_SKIP() << "shared data absent: ../shared/data";
   for (const std::string& path : models) {
     const TexturedMesh m = read_obj(path);
@@ -203,10 +203,13 @@ TEST(ChartsReal, InvariantsOnRealTiles) {
     for (const Face& f : m.faces) textured += f.page != kNoPage;
     EXPECT_EQ(faces_in_charts, textured) << path;
     EXPECT_GT(cs.atlas.num_charts, 0) << path;
-    EXPECT_LT(t.report.welded_vertices, m.positions.size()) << path;  // seams duplicate positions
+    if (path.find("contextcapture") != std::string::npos) {
+      EXPECT_LT(t.report.welded_vertices, m.positions.size()) << path;  // seams duplicate positions
+    }
     // Input UVs against themselves: no distortion.
     const DistortionSummary d = atlas_distortion(m, cs.atlas);
-    EXPECT_EQ(d.arap, 0.0) << path;
+    EXPECT_LT(d.arap, 1e-20) << path;  // zero up to the SVD's rounding
+    EXPECT_EQ(d.flipped, 0u) << path;
     // Every seam edge joins two different charts or a chart to itself across a cut.
     for (const SeamChain& ch : cs.chains) EXPECT_LE(ch.chart_a, ch.chart_b);
     std::printf("%s: %zu faces, V3 %zu, %d charts (%zu zero-area), %zu seam edges, %zu non-manifold edges\n",

@@ -42,11 +42,16 @@ TEST(Options, ErrorsNameTheKeyAndNeverClamp) {
   std::vector<std::string> errors;
   make_options(info, {{"angle_deg", 95}, {"count", 2.5}, {"mode", "c"}, {"flag", 1}, {"angle_treshold", 3}}, "detector", errors);
   ASSERT_EQ(errors.size(), 5u);
-  EXPECT_EQ(errors[0], "detector: 'angle_deg' = 95 outside [0, 90]");
-  EXPECT_NE(errors[1].find("'count' must be an integer, got 2.5"), std::string::npos);
-  EXPECT_NE(errors[2].find("'flag' must be a bool, got integer"), std::string::npos);
-  EXPECT_NE(errors[3].find("'mode' = \"c\" is not one of \"a\" \"b\""), std::string::npos);
-  EXPECT_NE(errors[4].find("unknown option 'angle_treshold' for detectors.d"), std::string::npos);
+  auto has = [&](const std::string& fragment) {
+    for (const auto& e : errors)
+      if (e.find(fragment) != std::string::npos) return true;
+    return false;
+  };
+  EXPECT_TRUE(has("detector: 'angle_deg' = 95 outside [0, 90]"));
+  EXPECT_TRUE(has("detector: 'count' must be an integer, got 2.5"));
+  EXPECT_TRUE(has("detector: 'flag' must be a bool, got integer"));
+  EXPECT_TRUE(has("detector: 'mode' = \"c\" is not one of \"a\" \"b\""));
+  EXPECT_TRUE(has("detector: unknown option 'angle_treshold' for detectors.d"));
   errors.clear();
   const Options ok = make_options(info, {{"angle_deg", 90}, {"count", 1}}, "detector", errors);
   EXPECT_TRUE(errors.empty());
@@ -87,7 +92,7 @@ TEST(Registry, RejectsMalformedNamesWrongKindAndDuplicates) {
 }
 
 TEST(Registry, BrokenModuleIsAnErrorNamingTheFile) {
-  const std::string dir = testing::temp_dir();
+  const std::string dir = texdefrag::testing::temp_dir();
   const std::string path = dir + "/texdefrag_broken.so";
   FILE* f = std::fopen(path.c_str(), "w");
   std::fputs("not a shared object", f);

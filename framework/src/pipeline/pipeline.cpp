@@ -177,6 +177,14 @@ TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, con
     Face& F = out.faces[f];
     if (input.faces[f].page == kNoPage) {
       if (F.material >= 0) F.material = remap[static_cast<size_t>(F.material)];
+      // Texture coordinates of faces without a page (no usemtl, or a material without image) are
+      // carried over as they are.
+      for (int k = 0; k < 3; ++k) {
+        int& vt = F.vt[static_cast<size_t>(k)];
+        if (vt < 0) continue;
+        out.texcoords.push_back(input.texcoords[static_cast<size_t>(vt)]);
+        vt = static_cast<int>(out.texcoords.size()) - 1;
+      }
       continue;
     }
     const int c = atlas.face_chart[f];
@@ -193,6 +201,17 @@ TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, con
         set[static_cast<size_t>(w)] = 1;
       }
     }
+  }
+  // OBJ cannot return to "no material" after a usemtl: faces without a material get an explicit
+  // empty one when any face has a material.
+  bool any_material = false, any_none = false;
+  for (const Face& F : out.faces) (F.material >= 0 ? any_material : any_none) = true;
+  if (any_material && any_none) {
+    Material none;
+    none.name = "texdefrag_no_material";
+    out.materials.push_back(none);
+    for (Face& F : out.faces)
+      if (F.material < 0) F.material = static_cast<int>(out.materials.size()) - 1;
   }
   return out;
 }
