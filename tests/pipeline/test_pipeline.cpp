@@ -21,8 +21,8 @@ std::string config_path(const std::string& name) { return (fs::path(source_dir()
 
 /// A small fragmented model on disk: a 4x3 grid, every triangle its own chart, one 64^2 page.
 std::string small_model(const std::string& dir) {
-  testing::write_test_image(dir + "/page.png", 64, 64);
-  TexturedMesh m = testing::fragmented_grid_mesh(4, 3, 64, dir + "/page.png");
+  texdefrag::testing::write_test_image(dir + "/page.png", 64, 64);
+  TexturedMesh m = texdefrag::testing::fragmented_grid_mesh(4, 3, 64, dir + "/page.png");
   write_obj(m, dir + "/small.obj");
   return dir + "/small.obj";
 }
@@ -97,16 +97,17 @@ TEST(Configs, OverridesBySectionAndByStageName) {
 }
 
 TEST(Pipeline, EveryConfigRunsEndToEnd) {
-  const std::string dir = testing::temp_dir();
+  const std::string dir = texdefrag::testing::temp_dir();
   const std::string model = small_model(dir);
-  const auto files = files_in(config_path(""));
-  ASSERT_FALSE(files.empty());
+  std::vector<std::string> files = files_in(config_path(""));
+  for (const std::string& f : files_in(config_path("ablations"))) files.push_back("ablations/" + f);
+  ASSERT_GE(files.size(), 3u);
   for (const std::string& f : files) {
     SCOPED_TRACE(f);
     const PipelineConfig cfg = load_config(config_path(f));
     RunOptions ro;
     ro.input = model;
-    ro.output_dir = dir + "/out_" + fs::path(f).stem().string();
+    ro.output_dir = dir + "/out_" + fs::path(f).parent_path().string() + "_" + fs::path(f).stem().string();
     const json report = run_pipeline(cfg, ro);
     EXPECT_TRUE(fs::exists(report["output"].get<std::string>()));
     expect_same_geometry(model, report["output"].get<std::string>());
@@ -123,7 +124,7 @@ TEST(Pipeline, EveryConfigRunsEndToEnd) {
 }
 
 TEST(Pipeline, RefusesToWriteIntoTheInputFolder) {
-  const std::string dir = testing::temp_dir();
+  const std::string dir = texdefrag::testing::temp_dir();
   const std::string model = small_model(dir);
   RunOptions ro;
   ro.input = model;
@@ -132,7 +133,7 @@ TEST(Pipeline, RefusesToWriteIntoTheInputFolder) {
 }
 
 TEST(Pipeline, BadInputNamesTheFile) {
-  const std::string dir = testing::temp_dir();
+  const std::string dir = texdefrag::testing::temp_dir();
   std::ofstream(dir + "/bad.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n";
   RunOptions ro;
   ro.input = dir + "/bad.obj";
@@ -147,14 +148,14 @@ TEST(Pipeline, BadInputNamesTheFile) {
 }
 
 TEST(PipelineReal, RepackKeepsGeometryAndTexture) {
-  const auto models = testing::real_models(25000);
+  const auto models = texdefrag::testing::real_models(25000);
   if (models.empty()) GTEST_SKIP() << "shared data absent: ../shared/data";
   const PipelineConfig cfg = load_config(config_path("repack.json"));
   for (const std::string& model : models) {
     SCOPED_TRACE(model);
     RunOptions ro;
     ro.input = model;
-    ro.output_dir = testing::temp_dir("_" + fs::path(model).stem().string());
+    ro.output_dir = texdefrag::testing::temp_dir("_" + fs::path(model).stem().string());
     const json report = run_pipeline(cfg, ro);
     const std::string out = report["output"].get<std::string>();
     expect_same_geometry(model, out);
