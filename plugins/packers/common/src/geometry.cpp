@@ -166,13 +166,38 @@ bool triangle_touches_cell(const Vec2& a, const Vec2& b, const Vec2& c, int i, i
 }
 
 void rasterise_triangle(const Vec2& a, const Vec2& b, const Vec2& c, Mask& mask) {
-  const int i0 = std::max(0, static_cast<int>(std::floor(std::min({a.x(), b.x(), c.x()}))) - 1);
-  const int i1 = std::min(mask.width - 1, static_cast<int>(std::floor(std::max({a.x(), b.x(), c.x()}))));
-  const int j0 = std::max(0, static_cast<int>(std::floor(std::min({a.y(), b.y(), c.y()}))) - 1);
-  const int j1 = std::min(mask.height - 1, static_cast<int>(std::floor(std::max({a.y(), b.y(), c.y()}))));
-  for (int j = j0; j <= j1; ++j)
-    for (int i = i0; i <= i1; ++i)
-      if (!mask.at(i, j) && triangle_touches_cell(a, b, c, i, j)) mask.set(i, j);
+  // Row by row: the triangle's intersection with the slab y in [j, j+1] is convex; its x-range
+  // [lo, hi] comes from the vertices inside the slab and the edges' crossings of y = j and y = j+1.
+  // Cell i touches it when i <= hi and i + 1 >= lo (closed cells), the same as triangle_touches_cell.
+  const Vec2* v[3] = {&a, &b, &c};
+  const double ymin = std::min({a.y(), b.y(), c.y()}), ymax = std::max({a.y(), b.y(), c.y()});
+  const int j0 = std::max(0, static_cast<int>(std::ceil(ymin)) - 1);
+  const int j1 = std::min(mask.height - 1, static_cast<int>(std::floor(ymax)));
+  for (int j = j0; j <= j1; ++j) {
+    const double y0 = j, y1 = j + 1.0;
+    double lo = 1e300, hi = -1e300;
+    for (int k = 0; k < 3; ++k) {
+      const Vec2& p = *v[k];
+      if (p.y() >= y0 && p.y() <= y1) {
+        lo = std::min(lo, p.x());
+        hi = std::max(hi, p.x());
+      }
+      const Vec2& q = *v[(k + 1) % 3];
+      if (p.y() == q.y()) continue;
+      for (double yl : {y0, y1}) {
+        if ((p.y() < yl && q.y() > yl) || (p.y() > yl && q.y() < yl)) {
+          const double t = (yl - p.y()) / (q.y() - p.y());
+          const double x = p.x() + t * (q.x() - p.x());
+          lo = std::min(lo, x);
+          hi = std::max(hi, x);
+        }
+      }
+    }
+    if (lo > hi) continue;
+    const int i0 = std::max(0, static_cast<int>(std::ceil(lo)) - 1);
+    const int i1 = std::min(mask.width - 1, static_cast<int>(std::floor(hi)));
+    for (int i = i0; i <= i1; ++i) mask.set(i, j);
+  }
 }
 
 Mask dilate(const Mask& m, int lo, int hi) {

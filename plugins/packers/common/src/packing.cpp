@@ -11,7 +11,7 @@
 
 namespace texdefrag::packing {
 
-std::vector<OptionSpec> common_options(bool free_rotation_default) {
+std::vector<OptionSpec> common_options(bool free_rotation_default, int width_trials_default) {
   return {
       opt_int("gutter", 4, "Empty texels kept between charts (and half of it at the page border)")
           .range(0, 64)
@@ -33,7 +33,7 @@ std::vector<OptionSpec> common_options(bool free_rotation_default) {
                  "A chart whose grid-exact faces cover at least this fraction of its UV area keeps whole-texel "
                  "placement (copied without resampling)")
           .range(0, 1),
-      opt_int("width_trials", 5, "Page widths tried (keeping the smallest result) when all charts fit on one page")
+      opt_int("width_trials", width_trials_default, "Page widths tried (keeping the smallest result) when all charts fit on one page")
           .range(1, 16),
   };
 }
@@ -92,8 +92,8 @@ void compute_boxes(PackChart& c) {
     if (c.base.empty()) xmin = xmax = ymin = ymax = 0;
     c.ox[q] = static_cast<int>(std::floor(xmin));
     c.oy[q] = static_cast<int>(std::floor(ymin));
-    c.w[q] = static_cast<int>(std::floor(xmax)) - c.ox[q] + 1;
-    c.h[q] = static_cast<int>(std::floor(ymax)) - c.oy[q] + 1;
+    c.w[q] = std::max(1, static_cast<int>(std::ceil(xmax)) - c.ox[q]);
+    c.h[q] = std::max(1, static_cast<int>(std::ceil(ymax)) - c.oy[q]);
   }
 }
 

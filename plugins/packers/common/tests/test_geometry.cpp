@@ -139,6 +139,27 @@ TEST(PackersGeometry, RasterIsConservative) {
   }
 }
 
+TEST(PackersGeometry, RasterMatchesCellTest) {
+  // The row-by-row rasteriser marks exactly the cells triangle_touches_cell accepts, including
+  // triangles with whole-texel corners and degenerate ones.
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(0, 15);
+  std::uniform_int_distribution<int> iu(0, 15);
+  for (int t = 0; t < 400; ++t) {
+    Vec2 p[3];
+    for (Vec2& q : p) q = t % 2 ? Vec2(u(rng), u(rng)) : Vec2(iu(rng), iu(rng));
+    if (t % 7 == 0) p[2] = p[1];
+    Mask m;
+    m.width = m.height = 16;
+    m.cells.assign(256, 0);
+    rasterise_triangle(p[0], p[1], p[2], m);
+    for (int j = 0; j < 16; ++j)
+      for (int i = 0; i < 16; ++i)
+        ASSERT_EQ(m.at(i, j), triangle_touches_cell(p[0], p[1], p[2], i, j))
+            << "trial " << t << " cell " << i << "," << j;
+  }
+}
+
 TEST(PackersGeometry, DilateKeepsGutter) {
   Mask m;
   m.width = 3;

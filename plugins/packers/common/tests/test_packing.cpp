@@ -66,12 +66,12 @@ TEST(PackersCommon, FootprintsOfAxisAlignedQuad) {
   EXPECT_TRUE(c.exact);  // no mesh: the atlas is the input, grid offset 0
   EXPECT_EQ(c.grid_offset, Vec2(0, 0));
   EXPECT_DOUBLE_EQ(c.uv_area, 15.0);
-  // x in [10.5, 15.5] -> cells 10..15 (6), y in [20.25, 23.25] -> cells 20..23 (4).
+  // x in [10.5, 15.5] -> cells [10, 16) (6), y in [20.25, 23.25] -> cells [20, 24) (4).
   EXPECT_EQ(c.w[0], 6);
   EXPECT_EQ(c.h[0], 4);
   EXPECT_EQ(c.ox[0], 10);
   EXPECT_EQ(c.oy[0], 20);
-  // Turned by 90 degrees: x = -y in [-23.25, -20.25] -> cells -24..-21 (4), y = x -> 10..15 (6).
+  // Turned by 90 degrees: x = -y in [-23.25, -20.25] -> cells [-24, -20) (4), y = x -> [10, 16) (6).
   EXPECT_EQ(c.w[1], 4);
   EXPECT_EQ(c.h[1], 6);
   EXPECT_EQ(c.ox[1], -24);
@@ -153,6 +153,22 @@ TEST(PackersCommon, GridOffsetFromFractionalMerge) {
   }
 }
 
+TEST(PackersCommon, WholeTexelRectangleCoversItsArea) {
+  StageContext ctx;
+  ctx.atlas = quad_atlas({rect(3, 4, 10, 5)});
+  CommonSettings s;
+  const PackInput in = prepare_charts(ctx, s, "packers.test");
+  const PackChart& c = in.charts[0];
+  EXPECT_EQ(c.w[0], 10);
+  EXPECT_EQ(c.h[0], 5);
+  EXPECT_EQ(c.w[1], 5);
+  EXPECT_EQ(c.h[1], 10);
+  const Mask m = c.raster(0);
+  int n = 0;
+  for (uint8_t v : m.cells) n += v;
+  EXPECT_EQ(n, 50);
+}
+
 TEST(PackersCommon, SharedWedgeIsAnError) {
   StageContext ctx;
   ctx.atlas = quad_atlas({rect(0, 0, 2, 2), rect(5, 5, 2, 2)});
@@ -173,7 +189,7 @@ TEST(PackersCommon, TooLargeChartNamesTheChart) {
   } catch (const StageError& e) {
     const std::string msg = e.what();
     EXPECT_NE(msg.find("packers.test: chart 1"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("301 x 21"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("300 x 20"), std::string::npos) << msg;
     EXPECT_NE(msg.find("128"), std::string::npos) << msg;
   }
 }

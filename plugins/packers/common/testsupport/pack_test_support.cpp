@@ -158,8 +158,9 @@ void expect_valid_layout(const PackRun& run, int gutter) {
       EXPECT_NEAR(sa, sb, 1e-6 * std::max(1.0, std::abs(sa))) << "chart " << c << " mirrored or scaled";
     }
   }
-  // Gutter: each chart's cells dilated by [-lo, hi] must not meet another chart's dilated cells,
-  // i.e. at least `gutter` empty cells between any two charts.
+  // Gutter: each chart's cells (its triangles rasterised within its box [floor(min), ceil(max)))
+  // dilated by [-lo, hi] must not meet another chart's dilated cells, i.e. at least `gutter` empty
+  // cells between any two charts.
   const int lo = gutter / 2, hi = gutter - gutter / 2;
   std::vector<std::vector<int>> owner(L.pages.size());
   for (size_t p = 0; p < L.pages.size(); ++p)
@@ -177,8 +178,8 @@ void expect_valid_layout(const PackRun& run, int gutter) {
       }
     const int ox = static_cast<int>(std::floor(x0)), oy = static_cast<int>(std::floor(y0));
     packing::Mask m;
-    m.width = static_cast<int>(std::floor(x1)) - ox + 1;
-    m.height = static_cast<int>(std::floor(y1)) - oy + 1;
+    m.width = std::max(1, static_cast<int>(std::ceil(x1)) - ox);
+    m.height = std::max(1, static_cast<int>(std::ceil(y1)) - oy);
     m.cells.assign(static_cast<size_t>(m.width) * static_cast<size_t>(m.height), 0);
     const Vec2 o(ox, oy);
     for (int f : fs) {

@@ -5,8 +5,11 @@
 //
 // Grid convention: cell (i, j) is the closed square [i, i+1] x [j, j+1] in texels (y up). A
 // triangle covers a cell when they intersect (touching counts), so covered cells contain the whole
-// triangle. Footprints clip that set to the cells floor(min)..floor(max) of the shape's bounding
-// box: every point of the shape lies in the union of the footprint's closed cells.
+// triangle. A shape's footprint is the cell box [floor(min), ceil(max)) of its bounding box (at
+// least one cell per axis): every point of the shape lies in the union of its closed cells, and a
+// shape whose corners are whole texels covers exactly its area (a 10 x 4 rectangle at integer
+// corners is 10 x 4 cells). Outlines are rasterised clipped to the footprint, so two footprints
+// `g` empty cells apart keep their shapes at least g texels apart.
 #pragma once
 
 #include "texdefrag/core/mesh.h"

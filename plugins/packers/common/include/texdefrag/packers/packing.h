@@ -11,9 +11,9 @@
 // may be rotated by any angle (the minimum-area rectangle's, when `free_rotation` is on and the
 // rectangle shrinks by more than `rotation_gain`).
 //
-// Footprints: a chart in orientation q (q quarter turns after its base transform) covers the cells
-// floor(min)..floor(max) of its bounding box (see geometry.h); packers place those cell boxes at
-// integer positions with `gutter` empty cells between charts.
+// Footprints: a chart in orientation q (q quarter turns after its base transform) covers the cell
+// box [floor(min), ceil(max)) of its bounding box (see geometry.h); packers place those cell boxes
+// at integer positions with `gutter` empty cells between charts.
 #pragma once
 
 #include "texdefrag/packers/geometry.h"
@@ -41,7 +41,8 @@ struct CommonSettings {
 
 /// Declarations of the common options, appended to each packer's StageInfo::options.
 /// free_rotation_default: the default of `free_rotation` for this packer.
-std::vector<OptionSpec> common_options(bool free_rotation_default);
+/// width_trials_default: the default of `width_trials` (each trial is a full packing run), 1..16.
+std::vector<OptionSpec> common_options(bool free_rotation_default, int width_trials_default);
 
 /// Reads the common options from validated stage options (every key present).
 CommonSettings read_common(const Options& options);
@@ -60,7 +61,8 @@ struct PackChart {
   std::vector<std::array<int, 3>> tris;  ///< per entry of `faces`: corner indices into `base`
   /// Cell box size in orientation q = 0..3 (quarter turns applied to `base`), texels.
   int w[4] = {1, 1, 1, 1}, h[4] = {1, 1, 1, 1};
-  /// Lowest cell corner of the box in orientation q: floor of the rotated base's minimum.
+  /// Lowest cell corner of the box in orientation q: floor of the rotated base's minimum; the box
+  /// is [ox, ox + w) x [oy, oy + h) with w = max(1, ceil(max x) - ox) (same for h).
   int ox[4] = {0, 0, 0, 0}, oy[4] = {0, 0, 0, 0};
 
   /// Cell box area in orientation 0 (texels^2).
