@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace texdefrag::eval {
 namespace {
@@ -168,6 +170,9 @@ size_t count_uv_overlaps(const TexturedMesh& mesh) {
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     const int p = mesh.faces[f].page;
     if (p == kNoPage) continue;
+    if (p < 0 || static_cast<size_t>(p) >= mesh.pages.size())
+      throw std::invalid_argument("eval: face " + std::to_string(f) + " names page " + std::to_string(p) + " of " +
+                                  std::to_string(mesh.pages.size()));
     per_page[static_cast<size_t>(p)].push_back({mesh.corner_texel(f, 0), mesh.corner_texel(f, 1), mesh.corner_texel(f, 2)});
   }
   size_t total = 0;
