@@ -17,7 +17,7 @@ std::vector<OptionSpec> common_options(bool free_rotation_default, int width_tri
           .range(0, 64)
           .unit("texels"),
       opt_int("max_page_size", 8192, "Largest page width and height; more pages are opened when charts do not fit")
-          .range(64, 65536)
+          .range(64, 32768)
           .unit("texels"),
       opt_int("page_multiple", 32, "Page sides are trimmed to the used area and rounded up to this multiple")
           .range(1, 4096)
