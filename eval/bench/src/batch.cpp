@@ -125,12 +125,10 @@ json run_pair(const BenchOptions& o, const std::string& exe, const BenchConfig& 
     run["source"] = tool.empty() ? "none" : "log.txt";
     r["run"] = run;
   } else {
-    std::vector<std::string> argv = {exe, "run", "--config", c.path};
-    for (const auto& s : c.overrides) {
-      argv.push_back("--set");
-      argv.push_back(s);
-    }
-    argv.insert(argv.end(), {m.path, "-o", dir.string(), "--quiet", "--report"});
+    // The input comes first: CLI11's repeatable --set would swallow a positional after it.
+    std::vector<std::string> argv = {exe, "run", m.path, "--config", c.path};
+    for (const auto& s : c.overrides) argv.insert(argv.end(), {"--set", s});
+    argv.insert(argv.end(), {"-o", dir.string(), "--quiet", "--report"});
     const ChildResult run = run_child(argv, (dir / "bench_run").string(), o.timeout_s);
     json figures = json::object();
     r["run"] = {{"exit_code", run.exit_code}, {"wall_s", run.wall_s}, {"child_max_rss_bytes", run.max_rss_bytes}};

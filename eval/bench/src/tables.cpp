@@ -107,7 +107,7 @@ int metric_direction(const std::string& name) {
 json derived_metrics(const json& r) {
   json d = json::object();
   const double nan = std::nan("");
-  auto neg = [](double x) { return std::isnan(x) ? x : -x; };
+  auto neg = [](double x) { return 0.0 - x; };  // never -0 (NaN stays NaN)
   d["chart_reduction"] = opt(neg(num_at(r, "/eval/relative_change/charts")));
   d["chart_reduction_nonzero"] = opt(neg(num_at(r, "/eval/relative_change/charts_nonzero_area")));
   d["uv_border_reduction"] = opt(neg(num_at(r, "/eval/relative_change/uv_border_length_texels")));

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -38,8 +39,8 @@ std::vector<std::string> read_lines(const fs::path& p) {
 std::string write_model(const fs::path& dir, const std::string& stem, int nx, int ny) {
   fs::create_directories(dir);
   const std::string image = (dir / (stem + ".png")).string();
-  testing::write_test_image(image, 64, 64);
-  const TexturedMesh m = testing::fragmented_grid_mesh(nx, ny, 64, image);
+  texdefrag::testing::write_test_image(image, 64, 64);
+  const TexturedMesh m = texdefrag::testing::fragmented_grid_mesh(nx, ny, 64, image);
   const std::string obj = (dir / (stem + ".obj")).string();
   write_obj(m, obj);
   return obj;
@@ -58,19 +59,26 @@ BenchOptions options(const std::string& data, const std::string& out) {
   return o;
 }
 
-/// The header and rows of a CSV without quoted commas (enough for these tests' values).
+/// The header and rows of a CSV (RFC 4180 quoting; no newlines inside cells).
 std::vector<std::vector<std::string>> read_csv(const fs::path& p) {
   std::vector<std::vector<std::string>> rows;
   for (const std::string& line : read_lines(p)) {
     std::vector<std::string> cells;
     std::string cur;
     bool quoted = false;
-    for (char c : line) {
-      if (c == '"') quoted = !quoted;
-      else if (c == ',' && !quoted) {
+    for (size_t i = 0; i < line.size(); ++i) {
+      const char c = line[i];
+      if (c == '"' && quoted && i + 1 < line.size() && line[i + 1] == '"') {
+        cur += '"';  // "" inside quotes
+        ++i;
+      } else if (c == '"') {
+        quoted = !quoted;
+      } else if (c == ',' && !quoted) {
         cells.push_back(cur);
         cur.clear();
-      } else cur += c;
+      } else {
+        cur += c;
+      }
     }
     cells.push_back(cur);
     rows.push_back(cells);
@@ -91,7 +99,7 @@ size_t column(const std::vector<std::string>& header, const std::string& name) {
 // Pieces
 
 TEST(BenchModels, FolderIsRecursiveSortedAndSkipsOutputsAndResults) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   write_text(d / "b" / "zeta.obj", "v 0 0 0\n");
   write_text(d / "a" / "alpha.OBJ", "v 0 0 0\n");
   write_text(d / "a" / "notes.txt", "x");
@@ -106,7 +114,7 @@ TEST(BenchModels, FolderIsRecursiveSortedAndSkipsOutputsAndResults) {
 }
 
 TEST(BenchModels, CollidingStemsUseRelativePaths) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   write_text(d / "x" / "tile.obj", "v 0 0 0\n");
   write_text(d / "y" / "tile.obj", "v 0 0 0\n");
   const auto models = discover_models(d.string());
@@ -116,7 +124,7 @@ TEST(BenchModels, CollidingStemsUseRelativePaths) {
 }
 
 TEST(BenchModels, ManifestRelativePathsNamesAndMeta) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   write_text(d / "b0001" / "b0001.obj", "v 0 0 0\n");
   write_text(d / "sub" / "m.obj", "v 0 0 0\n");
   write_text(d / "manifest.json",
@@ -133,7 +141,7 @@ TEST(BenchModels, ManifestRelativePathsNamesAndMeta) {
 }
 
 TEST(BenchModels, BadDataIsAClearError) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   EXPECT_THROW(discover_models((d / "absent").string()), BenchError);
   EXPECT_THROW(discover_models(d.string()), BenchError);  // no model
   write_text(d / "manifest.json", R"({"models":[{"path":"missing.obj"}]})");
@@ -148,7 +156,7 @@ TEST(BenchModels, BadDataIsAClearError) {
 }
 
 TEST(BenchConfigs, LabelsSetsSweepsAndExternals) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   write_text(d / "ext" / "x.obj", "");
   const auto cs = expand_configs({repack_config()}, {"packer.max_page_size=4096"},
                                  {"packer.gutter=2,8", "texture.filter=nearest,bilinear"}, {"mm=" + (d / "ext").string()});
@@ -190,7 +198,7 @@ TEST(BenchConfigs, ValidationNamesTheBadOption) {
 }
 
 TEST(BenchExternal, FindsOutputsByStem) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   write_text(d / "t015_L18" / "t015_L18_defrag.obj", "");
   write_text(d / "t016_L18" / "t016_L18-out.obj", "");
   write_text(d / "t078_L15.obj", "");
@@ -206,7 +214,7 @@ TEST(BenchExternal, FindsOutputsByStem) {
 }
 
 TEST(BenchExternal, ParsesTheToolLog) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   write_text(d / "log.txt",
              "Removed 20194 duplicate vertices\nRemoved 4 non-manifold faces\n"
              "Atlas energy before optimization is 6.9233e-32\n"
@@ -263,7 +271,7 @@ TEST(BenchTables, DerivedMetricsSummaryAndWinners) {
 }
 
 TEST(BenchTables, CsvQuotingAndRecordsLastWins) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   json a = {{"config", "c"}, {"model", "m"}, {"overrides", json::array()}, {"status", "failed"},
             {"error", "exit code 1: bad, \"quoted\""}};
   json b = a;
@@ -279,13 +287,13 @@ TEST(BenchTables, CsvQuotingAndRecordsLastWins) {
   write_csv({a, b}, (d / "r.csv").string());
   const auto rows = read_csv(d / "r.csv");
   ASSERT_EQ(rows.size(), 3u);
-  EXPECT_EQ(rows[1][column(rows[0], "error")], "exit code 1: bad, \"\"quoted\"\"");
+  EXPECT_EQ(rows[1][column(rows[0], "error")], "exit code 1: bad, \"quoted\"");
   EXPECT_EQ(rows[2][column(rows[0], "chart_reduction")], "0.5");
   EXPECT_EQ(rows[1][column(rows[0], "chart_reduction")], "");
 }
 
 TEST(BenchProcess, CapturesOutputExitCodesSignalsAndTimeouts) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   const ChildResult ok = run_child({"/bin/sh", "-c", "echo hello; echo oops >&2"}, (d / "a").string());
   EXPECT_TRUE(ok.ok());
   EXPECT_EQ(ok.out, "hello\n");
@@ -308,7 +316,7 @@ TEST(BenchProcess, CapturesOutputExitCodesSignalsAndTimeouts) {
 // Whole batches through the texdefrag executable
 
 TEST(BenchBatch, RunsRecordsResumesAndSurvivesFailures) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   write_model(d / "data" / "one", "small", 2, 1);   // 4 faces, 4 charts
   write_model(d / "data" / "two", "larger", 3, 2);  // 12 faces, 12 charts
   const fs::path out = d / "results";
@@ -335,7 +343,7 @@ TEST(BenchBatch, RunsRecordsResumesAndSurvivesFailures) {
   }
   auto rows = read_csv(out / "results.csv");
   ASSERT_EQ(rows.size(), 3u);
-  EXPECT_EQ(rows[1][column(rows[0], "chart_reduction")], "0");
+  EXPECT_EQ(std::stod(rows[1][column(rows[0], "chart_reduction")]), 0.0);
   EXPECT_EQ(rows[1][column(rows[0], "status")], "ok");
   const json summary = json::parse(std::ifstream(out / "summary.json"));
   EXPECT_EQ(summary["configs"]["repack"]["ok"], 2);
@@ -369,7 +377,7 @@ TEST(BenchBatch, RunsRecordsResumesAndSurvivesFailures) {
 }
 
 TEST(BenchBatch, SweepGivesOneRowPerValue) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   write_model(d / "data", "tiny", 2, 1);
   BenchOptions o = options((d / "data").string(), (d / "results").string());
   o.sweeps = {"packer.gutter=1,6"};
@@ -394,7 +402,7 @@ TEST(BenchBatch, SweepGivesOneRowPerValue) {
 }
 
 TEST(BenchBatch, ExternalOutputsAreEvaluatedLikeOurs) {
-  const fs::path d = testing::temp_dir();
+  const fs::path d = texdefrag::testing::temp_dir();
   write_model(d / "data" / "p", "alpha", 2, 1);
   write_model(d / "data" / "q", "beta", 2, 2);
   // First our own outputs, then a copy of alpha's output posing as another tool's.
@@ -433,8 +441,11 @@ TEST(BenchBatch, ExternalOutputsAreEvaluatedLikeOurs) {
   for (const char* k : {"charts", "v2", "uv_border_length_texels", "megapixels", "packing_efficiency"})
     EXPECT_EQ((*tool)["eval"]["output"][k], (*ours)["eval"]["output"][k]) << k;
   EXPECT_EQ((*tool)["eval"]["distortion"]["arap"], (*ours)["eval"]["distortion"]["arap"]);
-  for (const json& r : recs)
-    if (r["config"] == "tool" && r["model"] == "beta") EXPECT_EQ(r["status"], "missing");
+  for (const json& r : recs) {
+    if (r["config"] == "tool" && r["model"] == "beta") {
+      EXPECT_EQ(r["status"], "missing");
+    }
+  }
   const json summary = json::parse(std::ifstream(d / "ours" / "summary.json"));
   EXPECT_EQ(summary["configs"]["tool"]["missing"], 1);
   EXPECT_EQ(summary["configs"]["repack"]["ok"], 2);
