@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <random>
 #include <vector>
 
 namespace texdefrag {
@@ -524,6 +525,52 @@ TEST(TextureResample, DegenerateTrianglesGiveFiniteColours) {
     for (int y = 0; y < 16; ++y)
       for (int x = 0; x < 16; ++x) EXPECT_NE(pages[0].at(x, y)[0], 250) << x << "," << y;
   }
+}
+
+TEST(TextureResample, RandomTrianglesOnAConstantPageGiveTheConstant) {
+  // Any sample of a constant page is that constant, whatever the triangle: random, off-page,
+  // collinear, point-like and sliver triangles, every filter and fill, all over a 32x32 page.
+  std::mt19937 rng(12345);
+  std::uniform_real_distribution<double> coord(-20.0, 52.0);
+  std::uniform_int_distribution<int> kind(0, 5);
+  Scene s;
+  const int in = s.add_input_page(make_image(16, 16, 3, [](int, int, int c) { return 30 + 70 * c; }));
+  const int out = s.add_output_page(32, 32);
+  for (int n = 0; n < 300; ++n) {
+    const int c = s.add_chart(in, out);
+    Tri a{Vec2(coord(rng) / 4 + 4, coord(rng) / 4 + 4), Vec2(coord(rng) / 4 + 4, coord(rng) / 4 + 4), Vec2(coord(rng) / 4 + 4, coord(rng) / 4 + 4)};
+    Tri b{Vec2(coord(rng), coord(rng)), Vec2(coord(rng), coord(rng)), Vec2(coord(rng), coord(rng))};
+    switch (kind(rng)) {
+      case 0: b[2] = b[0] + 0.5 * (b[1] - b[0]); break;         // collinear output
+      case 1: b[1] = b[2] = b[0]; break;                         // point output
+      case 2: a[1] = a[2] = a[0]; break;                         // point input
+      case 3: b[2] = b[0] + (b[1] - b[0]) * 0.3 + Vec2(1e-7, 0); break;  // sliver
+      default: break;
+    }
+    s.add_face(c, a, b);
+  }
+  for (Filter f : {Filter::Nearest, Filter::Bilinear, Filter::Bicubic})
+    for (GutterFill g : {GutterFill::None, GutterFill::Dilate, GutterFill::PullPush}) {
+      ResampleOptions o = opts(f, g);
+      const std::array<uint8_t, 4> bg{255, 0, 255, 255};
+      std::copy(bg.begin(), bg.end(), o.background);
+      ResampleStats st;
+      const auto pages = s.run(o, &st);
+      ASSERT_EQ(pages.size(), 1u);
+      EXPECT_EQ(st.faces_copied + st.faces_resampled, 300u);
+      EXPECT_GT(st.texels_written, 100u);
+      for (int y = 0; y < 32; ++y)
+        for (int x = 0; x < 32; ++x) {
+          const uint8_t* p = pages[0].at(x, y);
+          const bool is_bg = std::equal(p, p + 3, bg.begin());
+          EXPECT_TRUE(g != GutterFill::PullPush || !is_bg) << x << "," << y;
+          if (!is_bg) {
+            ASSERT_EQ(p[0], 30) << x << "," << y;
+            ASSERT_EQ(p[1], 100) << x << "," << y;
+            ASSERT_EQ(p[2], 170) << x << "," << y;
+          }
+        }
+    }
 }
 
 TEST(TextureResample, MixedChannelCountsPromote) {

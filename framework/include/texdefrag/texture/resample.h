@@ -1,12 +1,14 @@
 // Texture resampling: renders output atlas pages from the input pages, given the working atlas
-// (input UVs are read from the TexturedMesh, output UVs from the Layout).
+// (input UVs are read from the TexturedMesh, output UVs from the Layout). Details: docs/texture.md.
 //
 // Each output triangle is rasterised on its output page (texel centres inside the triangle, with a
-// conservative one-texel border so bilinear lookups near chart borders find colour); every covered
-// texel maps through the triangle's affine map to the input page and is sampled there. A face whose
-// map is a whole-texel translation plus a multiple of 90 degrees is copied texel for texel (bit-exact).
-// The background around charts is then filled (pull-push or dilation) so MIP-mapping does not bleed
-// background colour into charts.
+// conservative one-texel border so bilinear lookups near chart borders find colour: every texel
+// whose centre is less than 1 texel away on both axes; interior texels are never overwritten by
+// another triangle's border); every covered texel maps through the triangle's affine map to the
+// input page and is sampled there (clamp-to-edge). A face whose map is a whole-texel translation
+// plus a multiple of 90 degrees is copied texel for texel (bit-exact). The background around
+// charts is then filled (pull-push or dilation) so MIP-mapping does not bleed background colour
+// into charts.
 #pragma once
 
 #include "texdefrag/core/charts.h"
@@ -22,24 +24,39 @@ enum class Filter { Nearest, Bilinear, Bicubic };
 enum class GutterFill { None, Dilate, PullPush };
 
 struct ResampleOptions {
+  /// Sampling of the input pages: Nearest, Bilinear, or Bicubic (Catmull-Rom, clamped to [0, 255]).
   Filter filter = Filter::Bilinear;
+  /// Texels no triangle covers: PullPush (all filled from a pyramid of covered texels), Dilate
+  /// (dilate_width rings, rest background) or None (background).
   GutterFill fill = GutterFill::PullPush;
-  /// Texels of dilation around charts for GutterFill::Dilate (pull-push fills the whole page).
+  /// Texels of dilation around charts for GutterFill::Dilate (pull-push fills the whole page);
+  /// >= 0 (negative throws StageError).
   int dilate_width = 8;
-  /// RGB(A) of texels not covered by any chart when fill is None.
+  /// RGBA of texels no fill reaches (fill None, beyond the dilation, or a page with no chart).
+  /// Grey outputs use [0] (and [3] as alpha), RGB outputs [0..2].
   uint8_t background[4] = {0, 0, 0, 255};
 };
 
 struct ResampleStats {
-  size_t texels_written = 0;     ///< texels covered by output triangles
+  size_t texels_written = 0;     ///< texels written by output triangles (interior and border), once each
   size_t texels_copied = 0;      ///< of those, copied bit-exact (whole-texel translation/rotation)
   size_t faces_copied = 0;       ///< faces whose map allowed exact copying
-  size_t faces_resampled = 0;
+  size_t faces_resampled = 0;    ///< other textured faces (zero-area output faces count here)
 };
 
-/// Renders the output pages. input_pages[i] is the image of mesh.pages[i]. Layout::pages gives the
-/// sizes; the result has one Image per output page, with the channel count of the input pages
-/// (the maximum, when they differ).
+/// Renders the output pages. Layout::pages gives the sizes; the result has one Image per output
+/// page, with the channel count of the input pages (the maximum, when they differ: grey is
+/// replicated, missing alpha is 255). The result does not depend on the number of threads.
+/// Throws StageError("texture.resample: ...") on inconsistent input and Cancelled when progress
+/// returns false.
+/// mesh: the input; faces with page != kNoPage are drawn, their input UVs from corner_texel().
+/// input_pages: input_pages[i] is the image of mesh.pages[i] with its width and height; pages no
+///   face uses may be empty. Not retained.
+/// atlas: face_chart / face_wedge of every face (-1 for untextured faces, as in the mesh).
+/// layout: output page sizes (1..65536), the output page of every chart, and every wedge's output
+///   position in texels of that page (y up), finite and within 1e9 texels.
+/// options: filter, fill and background. stats: filled when not null.
+/// progress: called from the calling thread as ("texture.resample", fraction), may be empty.
 std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Image>& input_pages,
                                   const Atlas& atlas, const Layout& layout,
                                   const ResampleOptions& options, ResampleStats* stats = nullptr,
