@@ -58,6 +58,7 @@ CLI::App* add_bench_command(CLI::App& app, int& exit_code) {
   sub->add_option("--timeout", o.timeout_s, "Seconds before a run or evaluation is killed (0 = no limit)")
       ->check(CLI::Range(0.0, 1e9));
   sub->add_flag("--no-plots", args->no_plots, "Do not run eval/plots/plots.py at the end");
+  sub->add_flag("--views", o.views, "Also write chart-coloured atlas pages per model, input and output (RESULTS/views/)");
   sub->add_option("--exe", o.exe, "texdefrag executable for the child processes (default: this one)")->group("");
   sub->add_option("--eval-pair", args->eval_pair, "internal: evaluate IN OUT and print the JSON record part")
       ->expected(2)

@@ -174,6 +174,34 @@ std::string short_result(const json& r) {
   return buf;
 }
 
+/// Chart-coloured views of every successful pair of this invocation that has none yet.
+void write_views(const BenchOptions&, const std::vector<BenchConfig>& configs, const std::vector<BenchModel>& models,
+                 const std::vector<json>& records, const fs::path& root,
+                 const std::function<void(const std::string&)>& log) {
+  std::map<std::string, const json*> by_key;
+  for (const json& r : records) by_key[record_key(r)] = &r;
+  for (const BenchConfig& c : configs)
+    for (const BenchModel& m : models) {
+      const auto it = by_key.find(record_key(base_record(c, m)));
+      if (it == by_key.end() || (*it->second)["status"] != "ok") continue;
+      const json& r = *it->second;
+      const std::pair<fs::path, std::string> jobs[] = {{root / "input" / m.id, m.path},
+                                                       {root / c.label / m.id, r.value("output", "")}};
+      for (const auto& [dir, obj] : jobs) {
+        if (fs::exists(dir) || obj.empty()) continue;
+        try {
+          fs::create_directories(dir);
+          const auto written = write_chart_views(obj, (dir / "charts").string());
+          log("views: " + std::to_string(written.size()) + " page(s) in " + dir.string());
+        } catch (const std::exception& e) {
+          std::error_code ec;
+          fs::remove_all(dir, ec);
+          log("views: " + c.label + " " + m.id + ": " + e.what());
+        }
+      }
+    }
+}
+
 }  // namespace
 
 json evaluate_pair(const std::string& input_obj, const std::string& output_obj, size_t samples, bool texture) {
@@ -264,6 +292,7 @@ BenchSummary run_bench(const BenchOptions& o) {
 
   size_t bad = 0;
   const std::vector<json> all = read_records(jsonl.string(), &bad);
+  if (o.views) write_views(o, configs, models, all, out / "views", log);
   if (bad) log("warning: " + std::to_string(bad) + " malformed line(s) in " + jsonl.string() + " ignored");
   write_csv(all, (out / "results.csv").string());
   const json summary = summarize(all);

@@ -3,6 +3,7 @@
 // tiny generated models (repack config): records, resume, failures, sweeps, external mode.
 #include "texdefrag/eval/bench.h"
 
+#include "texdefrag/io/image.h"
 #include "texdefrag/io/obj.h"
 #include "texdefrag/testing/fixtures.h"
 #include "texdefrag/util/paths.h"
@@ -312,6 +313,28 @@ TEST(BenchProcess, CapturesOutputExitCodesSignalsAndTimeouts) {
   EXPECT_FALSE(none.ok());
 }
 
+TEST(BenchViews, OneColourPerChart) {
+  const fs::path d = texdefrag::testing::temp_dir();
+  const std::string obj = write_model(d / "m", "grid", 2, 1);  // 4 triangles, 4 charts
+  const auto written = write_chart_views(obj, (d / "views" / "charts").string(), 32);
+  ASSERT_EQ(written.size(), 1u);
+  EXPECT_EQ(fs::path(written[0]).filename(), "charts_page0.png");
+  const Image im = read_image(written[0]);
+  EXPECT_EQ(im.width, 32);  // 64^2 page scaled to 32
+  EXPECT_EQ(im.height, 32);
+  std::set<std::array<uint8_t, 3>> colours;
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      const uint8_t* p = &im.pixels[(static_cast<size_t>(y) * 32 + static_cast<size_t>(x)) * static_cast<size_t>(im.channels)];
+      colours.insert({p[0], p[1], p[2]});
+    }
+  EXPECT_EQ(colours.size(), 5u);  // four charts and the background
+  EXPECT_TRUE(colours.count({40, 40, 40}));
+  for (int c = 0; c < 4; ++c) EXPECT_TRUE(colours.count(chart_colour(c))) << c;
+  EXPECT_NE(chart_colour(0), chart_colour(1));
+  EXPECT_THROW(write_chart_views((d / "absent.obj").string(), (d / "x").string()), std::exception);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Whole batches through the texdefrag executable
 
@@ -381,8 +404,11 @@ TEST(BenchBatch, SweepGivesOneRowPerValue) {
   write_model(d / "data", "tiny", 2, 1);
   BenchOptions o = options((d / "data").string(), (d / "results").string());
   o.sweeps = {"packer.gutter=1,6"};
+  o.views = true;
   const BenchSummary s = run_bench(o);
   EXPECT_EQ(s.ran, 2u);
+  for (const char* v : {"input", "repack[gutter=1]", "repack[gutter=6]"})
+    EXPECT_TRUE(fs::exists(d / "results" / "views" / v / "tiny" / "charts_page0.png")) << v;
   const auto recs = read_records((d / "results" / "results.jsonl").string());
   ASSERT_EQ(recs.size(), 2u);
   std::set<std::string> labels, values;

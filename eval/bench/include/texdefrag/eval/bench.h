@@ -10,6 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
+#include <cstdint>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -127,6 +129,7 @@ struct BenchOptions {
   bool texture = true;                  ///< compute texture fidelity
   bool retry_failed = false;            ///< re-run pairs whose existing record failed
   double timeout_s = 0;                 ///< per child process; 0 = none
+  bool views = false;                   ///< also write chart-coloured page views (write_chart_views)
   std::string exe;                      ///< texdefrag executable for children; "" = /proc/self/exe
   /// Called (serialised, from worker threads) with one line per finished or skipped pair.
   std::function<void(const std::string&)> log;
@@ -146,8 +149,24 @@ struct BenchSummary {
 /// OUT/results.csv and OUT/summary.json from all records of results.jsonl (the last record of a
 /// pair wins). Pairs already recorded are skipped (failed ones too unless retry_failed).
 /// A failing pair is recorded with status "failed" and its error; it never stops the batch.
+/// With options.views, every successful pair of the invocation without views gets
+/// OUT/views/<label>/<model>/charts_page<k>.png and OUT/views/input/<model>/charts_page<k>.png.
 /// Throws BenchError for bad arguments or invalid configurations (before running anything).
 BenchSummary run_bench(const BenchOptions& options);
+
+/// Distinct colour of a chart id for views (golden-ratio hue steps).
+std::array<uint8_t, 3> chart_colour(int chart);
+
+/// Chart-coloured views of the atlas pages of a model (the paper's Figures 13-14 style): each
+/// textured face's UV triangle filled with its chart's colour (charts of core/charts.h, pages
+/// canonicalised as in eval), background dark grey, scaled down so the longer side is at most
+/// `max_size` pixels (faces smaller than a pixel still mark their centroid's pixel).
+/// @param obj_path  the model (OBJ + MTL; page images are only stat'ed for their sizes)
+/// @param prefix    output path prefix (its folder is created); writes <prefix>_page<k>.png for
+///                  every page used by a face
+/// @param max_size  pixels, >= 16
+/// Returns the written paths. Throws ObjError/ImageError/BenchError naming the file.
+std::vector<std::string> write_chart_views(const std::string& obj_path, const std::string& prefix, int max_size = 1024);
 
 /// Evaluates one pair in this process (the body of the evaluation child):
 /// {"comparison": eval::to_json(compare_files(...)), "eval_time_s", "peak_rss_bytes"}.
