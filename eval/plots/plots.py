@@ -268,7 +268,7 @@ def figures(rows, configs, outdir):
             ax.scatter([i + 1] * len(d), d, s=10, alpha=0.5, color="black", zorder=3)
             ax.annotate(f"median {statistics.median(d):.4f}", (i + 1, statistics.median(d)), xytext=(8, 0),
                         textcoords="offset points", fontsize=8)
-        ax.set_ylabel("ARAP distortion (area-weighted mean of (s1-1)^2+(s2-1)^2)")
+        ax.set_ylabel("ARAP distortion E")
         ax.set_title("Figure 18: texture distortion")
         ax.grid(axis="y", alpha=0.3)
         fig.tight_layout()
@@ -277,7 +277,7 @@ def figures(rows, configs, outdir):
         written.append("fig18_distortion.png")
 
     if any(values(rows, c, "texture_mp_change") for c in configs):
-        fig, axes = plt.subplots(2, 1, figsize=(max(7, 0.6 * len({r['model'] for r in rows}) * len(configs)), 7.5))
+        fig, axes = plt.subplots(2, 1, figsize=(min(16, max(7, 0.6 * len({r['model'] for r in rows}) * len(configs))), 7.5))
         mp_labels = {c: f"{c} (mean {100 * mean(v):+.1f}%)" for c in configs
                      if (v := values(rows, c, "texture_mp_change"))}
         by_labels = {c: f"{c} (mean {100 * mean(v):+.1f}%)" for c in configs
@@ -295,7 +295,7 @@ def figures(rows, configs, outdir):
         written.append("fig19_texture_size.png")
 
     if any(values(rows, c, "replication_out") for c in configs):
-        fig, ax = plt.subplots(figsize=(max(7, 0.6 * len({r['model'] for r in rows}) * (len(configs) + 1)), 4.5))
+        fig, ax = plt.subplots(figsize=(min(16, max(7, 0.6 * len({r['model'] for r in rows}) * (len(configs) + 1))), 4.5))
         per_model_bars(plt, rows, configs, "replication_out", ax, scale=1, baseline_metric="replication_in")
         ax.set_ylabel("vertex replication V2 / V3")
         ax.axhline(1, color="black", linewidth=0.8)
