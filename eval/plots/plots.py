@@ -349,6 +349,7 @@ def main(argv=None):
     ap.add_argument("--csv", help="results CSV (default RESULTS/results.csv)")
     ap.add_argument("--figures", help="folder for the PNG figures (default RESULTS/figures)")
     ap.add_argument("--configs", nargs="*", help="configurations to include, in this order (default: all)")
+    ap.add_argument("--summary", help="markdown table to write (default RESULTS/summary.md)")
     args = ap.parse_args(argv)
 
     csv_path = args.csv or os.path.join(args.results, "results.csv")
@@ -371,7 +372,7 @@ def main(argv=None):
         return 1
 
     md = summary_markdown(rows, configs)
-    md_path = os.path.join(args.results, "summary.md")
+    md_path = args.summary or os.path.join(args.results, "summary.md")
     with open(md_path, "w") as f:
         f.write(md + "\n")
     print(f"plots.py: wrote {md_path}")
