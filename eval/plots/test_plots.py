@@ -108,6 +108,20 @@ def main():
     if bad.returncode != 1 or "unknown configuration" not in bad.stderr:
         fail(f"unknown config: exit {bad.returncode} {bad.stderr}")
 
+    # Without matplotlib (a shadowing package that fails to import): exit 3, the table still written.
+    fake = os.path.join(args.workdir, "no_matplotlib")
+    os.makedirs(os.path.join(fake, "matplotlib"), exist_ok=True)
+    with open(os.path.join(fake, "matplotlib", "__init__.py"), "w") as f:
+        f.write("raise ImportError('matplotlib hidden by test_plots')\n")
+    os.remove(os.path.join(args.workdir, "summary.md"))
+    env = dict(os.environ, PYTHONPATH=fake)
+    hidden = subprocess.run([sys.executable, os.path.join(HERE, "plots.py"), "--results", args.workdir],
+                            capture_output=True, text=True, env=env)
+    if hidden.returncode != 3 or "matplotlib is not installed" not in hidden.stderr:
+        fail(f"without matplotlib: exit {hidden.returncode} {hidden.stderr}")
+    if not os.path.isfile(os.path.join(args.workdir, "summary.md")):
+        fail("without matplotlib the table must still be written")
+
     if p.returncode == 3:
         print("matplotlib missing: figures not tested")
         return 77
