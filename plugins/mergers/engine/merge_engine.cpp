@@ -37,6 +37,9 @@ std::vector<OptionSpec> merge_option_specs() {
           .range(1, 1000),
       opt_int("max_free_vertices", 2000, "Largest free region of one merge (nearest wedges to the seam first)")
           .range(1, 10000000),
+      opt_bool("cross_page", true,
+               "Merge charts whose texels lie on different input pages (each face keeps its own page's texels as "
+               "rest shape); false keeps every chart on one input page"),
   };
 }
 
@@ -49,6 +52,7 @@ MergeOptions merge_options_from(const Options& o) {
   m.max_merges = o.get_int("max_merges");
   m.max_attempts = static_cast<int>(o.get_int("max_attempts"));
   m.max_free_vertices = static_cast<int>(o.get_int("max_free_vertices"));
+  m.cross_page = o.get_bool("cross_page");
   return m;
 }
 
@@ -88,6 +92,7 @@ struct ChartInfo {
   int version = 0;
   int region = -1;
   int page = kNoPage;
+  std::map<int, double> page_area;  ///< input UV area (texels^2) per input page of its faces
   double uv_area = 0;   ///< input UV area of its faces (texels^2): stable under optimisation
   double border = 0;    ///< current UV border length (texels)
   double planarity = 0; ///< cached index for the current version
@@ -256,6 +261,7 @@ void Engine::setup() {
     ch.page = at_.chart_page[static_cast<size_t>(c)];
     ch.faces.push_back(static_cast<int>(f));
     ch.uv_area += rest_w_[f];
+    ch.page_area[mesh_.faces[f].page] += rest_w_[f];
     if (topo_.face_degenerate[f]) ch.locked = true;
     Moments m;
     m.add_triangle(mesh_.corner_position(f, 0) - origin, mesh_.corner_position(f, 1) - origin,
@@ -366,7 +372,8 @@ void Engine::refresh_planarity(int c) {
 bool Engine::candidate(int a, int b) const {
   const ChartInfo& A = charts_[static_cast<size_t>(a)];
   const ChartInfo& B = charts_[static_cast<size_t>(b)];
-  return a != b && A.alive && B.alive && !A.locked && !B.locked && A.page == B.page && A.region >= 0 &&
+  return a != b && A.alive && B.alive && !A.locked && !B.locked && (opt_.cross_page || A.page == B.page) &&
+         A.region >= 0 &&
          A.region == B.region;
 }
 
@@ -746,6 +753,18 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
   }
   Bg.mom.add(Sm.mom);
   Bg.uv_area += Sm.uv_area;
+  for (const auto& [pg, ar] : Sm.page_area) Bg.page_area[pg] += ar;
+  Sm.page_area.clear();
+  if (Bg.page != Sm.page) {
+    // The chart's page = the page with the most input UV area (ties: the lower page id).
+    double best = -1;
+    for (const auto& [pg, ar] : Bg.page_area)
+      if (ar > best) {
+        best = ar;
+        Bg.page = pg;
+      }
+    at_.chart_page[static_cast<size_t>(big)] = Bg.page;
+  }
   Sm.alive = false;
   ++Sm.version;
   ++Bg.version;

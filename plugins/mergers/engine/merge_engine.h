@@ -2,8 +2,9 @@
 // Maggiordomo et al. 2021 for the M-method's cost and acceptance tests). docs/mergers.md describes
 // every rule; in short:
 // - candidates: chart pairs sharing seam edges (manifold edges between two textured faces whose
-//   corners do not share wedges), both charts on the same input page and in the same region (a
-//   chart's region is the majority region of its faces); charts with a degenerate face are locked.
+//   corners do not share wedges), both charts in the same region (a chart's region is the majority
+//   region of its faces) and, unless cross_page, on the same input page; charts with a degenerate
+//   face are locked. A merged chart's atlas.chart_page is the page holding most of its input UV area.
 // - order: a max-priority queue on X = max(I_a, I_b) * max(UVArea_a, UVArea_b) (planarity), or the
 //   M-method's cost (smallest first); stale entries are skipped via per-chart version stamps.
 // - one move: rigid least-squares fit of the smaller chart onto the bigger over the seam's wedge
@@ -41,6 +42,7 @@ struct MergeOptions {
   long long max_merges = 100000000;  ///< stop after this many accepted merges (>= 0)
   int max_attempts = 3;         ///< attempts per chart pair (a rejected pair is retried when a chart changes)
   int max_free_vertices = 2000; ///< cap on the free region (nearest wedges first)
+  bool cross_page = true;       ///< allow merging charts whose texels lie on different input pages
   PlanarityWeights weights;     ///< planarity index weights
 };
 

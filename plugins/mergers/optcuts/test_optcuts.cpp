@@ -190,12 +190,45 @@ TEST(OptCuts, DistortedInputStaysWithinTheBound) {
   test::expect_valid_atlas(run);
 }
 
-TEST(OptCuts, ChartsOnDifferentPagesNeverMerge) {
+/// fragmented_grid_mesh(4, 2) with its last three quarters of faces moved to a second page twice as
+/// large (2048 x 2048) whose UVs are halved: the same texel triangles, on another page.
+TexturedMesh two_page_grid() {
   TexturedMesh m = texdefrag::testing::fragmented_grid_mesh(4, 2, 1024, "unused.png");
-  m.pages.push_back(m.pages[0]);
-  for (size_t f = m.faces.size() / 2; f < m.faces.size(); ++f) m.faces[f].page = 1;
-  test::Run run(std::move(m));
+  Page p = m.pages[0];
+  p.width = 2048;
+  p.height = 2048;
+  p.image_path = "unused2.png";
+  m.pages.push_back(p);
+  for (size_t f = m.faces.size() / 4; f < m.faces.size(); ++f) {
+    m.faces[f].page = 1;
+    for (int k = 0; k < 3; ++k) m.texcoords[static_cast<size_t>(m.faces[f].vt[static_cast<size_t>(k)])] *= 0.5;
+  }
+  return m;
+}
+
+TEST(OptCuts, ChartsOnDifferentPagesMergeWhenCrossPage) {
+  test::Run run(two_page_grid());
+  ASSERT_EQ(run.ctx.atlas.num_charts, 16);
   run.merge("mergers.optcuts");
+  const Atlas& at = run.ctx.atlas;
+  EXPECT_EQ(at.num_charts, 1);
+  // Same texel triangles on both pages: the merged chart is an isometry of every input triangle.
+  EXPECT_LT(run.report["distortion_out"].get<double>(), 1e-10);
+  EXPECT_LT(atlas_distortion(run.mesh, at).arap, 1e-10);
+  // The chart's page is the page of its larger part (page 1: three quarters of the faces).
+  ASSERT_EQ(at.chart_page.size(), 1u);
+  EXPECT_EQ(at.chart_page[0], 1);
+  // Each face keeps its input texel area: fixture cells are 1024 / 4 texels (16 triangles, 4 columns),
+  // each triangle a right triangle with legs 0.8 cell.
+  const double cell = 1024.0 / 4.0 * 0.8;
+  for (size_t f = 0; f < run.mesh.faces.size(); ++f)
+    EXPECT_NEAR(std::abs(atlas_face_area(at, static_cast<int>(f))), 0.5 * cell * cell, 1e-6) << f;
+  test::expect_valid_atlas(run);
+}
+
+TEST(OptCuts, ChartsOnDifferentPagesNeverMergeWithoutCrossPage) {
+  test::Run run(two_page_grid());
+  run.merge("mergers.optcuts", {{"cross_page", false}});
   EXPECT_EQ(run.ctx.atlas.num_charts, 2);
   for (size_t f = 0; f < run.mesh.faces.size(); ++f)
     EXPECT_EQ(run.ctx.atlas.chart_page[static_cast<size_t>(run.ctx.atlas.face_chart[f])], run.mesh.faces[f].page);
@@ -209,7 +242,7 @@ TEST(OptCuts, OptionsAreDeclared) {
   std::set<std::string> keys;
   for (const OptionSpec& o : info->options) keys.insert(o.key);
   for (const char* k : {"priority", "alpha", "global_bound", "local_bound", "max_merges", "max_attempts",
-                        "max_free_vertices", "newton_iterations", "newton_tolerance"})
+                        "max_free_vertices", "cross_page", "newton_iterations", "newton_tolerance"})
     EXPECT_TRUE(keys.count(k)) << k;
   EXPECT_THROW(default_options(*info, {{"global_bound", -1}}), std::invalid_argument);
   EXPECT_THROW(default_options(*info, {{"priority", "fastest"}}), std::invalid_argument);
