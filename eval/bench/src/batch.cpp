@@ -192,7 +192,11 @@ void write_views(const BenchOptions&, const std::vector<BenchConfig>& configs, c
         try {
           fs::create_directories(dir);
           const auto written = write_chart_views(obj, (dir / "charts").string());
-          log("views: " + std::to_string(written.size()) + " page(s) in " + dir.string());
+          write_chart_render(obj, (dir / "charts_3d.png").string());
+          const bool regions = dir != root / "input" && !c.external() &&
+                               !write_region_render(m.path, c.path, c.overrides, (dir / "regions_3d.png").string()).empty();
+          log("views: " + std::to_string(written.size()) + " page(s), charts_3d" + (regions ? ", regions_3d" : "") +
+              " in " + dir.string());
         } catch (const std::exception& e) {
           std::error_code ec;
           fs::remove_all(dir, ec);

@@ -1,5 +1,6 @@
-// Chart-coloured views of atlas pages (as the atlases of Liu et al. 2024, Figures 13-14): every
-// textured face's UV triangle filled with its chart's colour, so fragmentation is visible at a glance.
+// Views for the eval harness, after Liu et al. 2024: chart-coloured atlas pages (Figures 13-14:
+// every textured face's UV triangle filled with its chart's colour) and oblique 3D renders coloured
+// by chart or by detected region (Figure 11), from a small z-buffered software rasteriser.
 #include "texdefrag/eval/bench.h"
 
 #include "texdefrag/core/charts.h"
@@ -7,6 +8,8 @@
 #include "texdefrag/eval/metrics.h"
 #include "texdefrag/io/image.h"
 #include "texdefrag/io/obj.h"
+#include "texdefrag/pipeline/pipeline.h"
+#include "texdefrag/stage/registry.h"
 
 #include <algorithm>
 #include <cmath>
@@ -106,6 +109,125 @@ std::vector<std::string> write_chart_views(const std::string& obj_path, const st
     written.push_back(path);
   }
   return written;
+}
+
+}  // namespace texdefrag::bench
+
+namespace texdefrag::bench {
+
+Image render_3d(const TexturedMesh& mesh, const std::vector<int>& face_colour, int size) {
+  if (size < 16) throw BenchError("render_3d: size must be at least 16");
+  if (face_colour.size() != mesh.faces.size()) throw BenchError("render_3d: one colour id per face expected");
+  const double kPi = 3.14159265358979323846;
+  const double az = 35 * kPi / 180, el = 40 * kPi / 180;
+  const Vec3 toward(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));  // to the camera
+  const Vec3 sx(-std::sin(az), std::cos(az), 0);
+  const Vec3 sy = toward.cross(sx);  // screen up
+  const Vec3 light = (toward + Vec3(0.3, -0.2, 0.6)).normalized();
+  std::vector<Vec3> p(mesh.positions.size());
+  double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
+  std::vector<uint8_t> used(mesh.positions.size(), 0);
+  for (const Face& f : mesh.faces)
+    for (int k = 0; k < 3; ++k) used[static_cast<size_t>(f.v[static_cast<size_t>(k)])] = 1;
+  for (size_t i = 0; i < p.size(); ++i) {
+    const Vec3& q = mesh.positions[i];
+    p[i] = Vec3(q.dot(sx), q.dot(sy), q.dot(toward));
+    if (!used[i] || !q.allFinite()) continue;
+    x0 = std::min(x0, p[i].x()), x1 = std::max(x1, p[i].x());
+    y0 = std::min(y0, p[i].y()), y1 = std::max(y1, p[i].y());
+  }
+  Image im;
+  im.channels = 3;
+  if (x1 < x0) {  // no face
+    im.width = im.height = size;
+  } else {
+    const double w = std::max(x1 - x0, 1e-12), h = std::max(y1 - y0, 1e-12);
+    im.width = w >= h ? size : std::max(16, static_cast<int>(std::lround(size * w / h)));
+    im.height = h > w ? size : std::max(16, static_cast<int>(std::lround(size * h / w)));
+  }
+  im.pixels.assign(static_cast<size_t>(im.width) * static_cast<size_t>(im.height) * 3, 245);
+  if (x1 < x0) return im;
+  const double margin = 0.02 * std::max(im.width, im.height);
+  const double s = std::min((im.width - 2 * margin) / std::max(x1 - x0, 1e-12), (im.height - 2 * margin) / std::max(y1 - y0, 1e-12));
+  std::vector<double> depth(static_cast<size_t>(im.width) * static_cast<size_t>(im.height), -1e300);
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    std::array<Vec3, 3> t;
+    std::array<Vec3, 3> world;
+    for (int k = 0; k < 3; ++k) {
+      const size_t v = static_cast<size_t>(mesh.faces[f].v[static_cast<size_t>(k)]);
+      world[static_cast<size_t>(k)] = mesh.positions[v];
+      t[static_cast<size_t>(k)] = Vec3(margin + (p[v].x() - x0) * s, im.height - margin - (p[v].y() - y0) * s, p[v].z());
+    }
+    const Vec3 n = (world[1] - world[0]).cross(world[2] - world[0]);
+    const double nn = n.norm();
+    const double shade = 0.35 + 0.65 * (nn > 0 ? std::abs(n.dot(light)) / nn : 0.0);
+    std::array<uint8_t, 3> base = face_colour[f] < 0 ? std::array<uint8_t, 3>{150, 150, 150} : chart_colour(face_colour[f]);
+    std::array<uint8_t, 3> c;
+    for (int k = 0; k < 3; ++k)
+      c[static_cast<size_t>(k)] = static_cast<uint8_t>(std::lround(base[static_cast<size_t>(k)] * shade));
+    const double area = (t[1].x() - t[0].x()) * (t[2].y() - t[0].y()) - (t[1].y() - t[0].y()) * (t[2].x() - t[0].x());
+    if (area == 0 || !std::isfinite(area)) continue;
+    const int bx0 = std::max(0, static_cast<int>(std::floor(std::min({t[0].x(), t[1].x(), t[2].x()}))));
+    const int bx1 = std::min(im.width - 1, static_cast<int>(std::ceil(std::max({t[0].x(), t[1].x(), t[2].x()}))));
+    const int by0 = std::max(0, static_cast<int>(std::floor(std::min({t[0].y(), t[1].y(), t[2].y()}))));
+    const int by1 = std::min(im.height - 1, static_cast<int>(std::ceil(std::max({t[0].y(), t[1].y(), t[2].y()}))));
+    for (int y = by0; y <= by1; ++y)
+      for (int x = bx0; x <= bx1; ++x) {
+        const double cx = x + 0.5, cy = y + 0.5;
+        double w[3];
+        for (int k = 0; k < 3; ++k) {
+          const Vec3& a = t[static_cast<size_t>((k + 1) % 3)];
+          const Vec3& b = t[static_cast<size_t>((k + 2) % 3)];
+          w[k] = ((b.x() - a.x()) * (cy - a.y()) - (b.y() - a.y()) * (cx - a.x())) / area;
+        }
+        if (w[0] < 0 || w[1] < 0 || w[2] < 0) continue;
+        const double z = w[0] * t[0].z() + w[1] * t[1].z() + w[2] * t[2].z();
+        const size_t i = static_cast<size_t>(y) * static_cast<size_t>(im.width) + static_cast<size_t>(x);
+        if (z <= depth[i]) continue;
+        depth[i] = z;
+        std::copy(c.begin(), c.end(), &im.pixels[i * 3]);
+      }
+  }
+  return im;
+}
+
+std::string write_chart_render(const std::string& obj_path, const std::string& png_path, int size) {
+  const TexturedMesh mesh = read_obj(obj_path);
+  const Topology topo = build_topology(mesh);
+  const ChartSet charts = build_charts(mesh, topo);
+  const fs::path folder = fs::path(png_path).parent_path();
+  if (!folder.empty()) fs::create_directories(folder);
+  write_image(png_path, render_3d(mesh, charts.atlas.face_chart, size), ImageFormat::Png);
+  return png_path;
+}
+
+std::string write_region_render(const std::string& obj_path, const std::string& config_path,
+                                const std::vector<std::string>& overrides, const std::string& png_path, int size) {
+  const PipelineConfig cfg = load_config(config_path, overrides);
+  if (cfg.detector.type == "detectors.none") return "";
+  TexturedMesh mesh = read_obj(obj_path);
+  const Topology topo = build_topology(mesh);
+  const ChartSet charts = build_charts(mesh, topo);
+  StageContext ctx;
+  ctx.mesh = &mesh;
+  ctx.topology = &topo;
+  ctx.input_charts = &charts;
+  ctx.atlas = charts.atlas;
+  json report = json::object();
+  ctx.report = &report;
+  ctx.progress = [](const std::string&, double) { return true; };
+  ctx.input_path = obj_path;
+  auto stage = Registry::instance().create(cfg.detector.type);
+  stage->set_options(cfg.detector.options);
+  auto* detector = dynamic_cast<Detector*>(stage.get());
+  if (!detector) throw BenchError(cfg.detector.type + " is not a detector");
+  detector->detect(ctx);
+  if (ctx.regions.face_region.size() != mesh.faces.size())
+    throw BenchError(cfg.detector.type + ": regions do not cover every face");
+  const fs::path folder = fs::path(png_path).parent_path();
+  if (!folder.empty()) fs::create_directories(folder);
+  write_image(png_path, render_3d(mesh, ctx.regions.face_region, size), ImageFormat::Png);
+  return png_path;
 }
 
 }  // namespace texdefrag::bench

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -335,6 +336,24 @@ TEST(BenchViews, OneColourPerChart) {
   EXPECT_THROW(write_chart_views((d / "absent.obj").string(), (d / "x").string()), std::exception);
 }
 
+TEST(BenchViews, RenderShowsEveryChartOnce) {
+  const fs::path d = texdefrag::testing::temp_dir();
+  const TexturedMesh m = texdefrag::testing::fragmented_grid_mesh(2, 1, 64, (d / "p.png").string());
+  const Image im = render_3d(m, {0, 1, 2, 3}, 100);
+  EXPECT_EQ(std::max(im.width, im.height), 100);
+  std::map<std::array<uint8_t, 3>, int> colours;
+  for (size_t i = 0; i + 2 < im.pixels.size(); i += 3) ++colours[{im.pixels[i], im.pixels[i + 1], im.pixels[i + 2]}];
+  // A flat grid has one shade: four chart colours and the background, each chart clearly visible.
+  EXPECT_EQ(colours.size(), 5u);
+  EXPECT_GT((colours[{245, 245, 245}]), 0);
+  for (const auto& [c, n] : colours) EXPECT_GT(n, 100) << int(c[0]) << "," << int(c[1]) << "," << int(c[2]);
+  EXPECT_THROW(render_3d(m, {0, 1}, 100), BenchError);
+  const std::string obj = write_model(d / "m", "grid", 2, 1);
+  EXPECT_EQ(write_region_render(obj, repack_config(), {}, (d / "r.png").string()), "");  // detectors.none
+  EXPECT_FALSE(fs::exists(d / "r.png"));
+  EXPECT_TRUE(fs::exists(write_chart_render(obj, (d / "v" / "c.png").string(), 64)));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Whole batches through the texdefrag executable
 
@@ -407,8 +426,10 @@ TEST(BenchBatch, SweepGivesOneRowPerValue) {
   o.views = true;
   const BenchSummary s = run_bench(o);
   EXPECT_EQ(s.ran, 2u);
-  for (const char* v : {"input", "repack[gutter=1]", "repack[gutter=6]"})
+  for (const char* v : {"input", "repack[gutter=1]", "repack[gutter=6]"}) {
     EXPECT_TRUE(fs::exists(d / "results" / "views" / v / "tiny" / "charts_page0.png")) << v;
+    EXPECT_TRUE(fs::exists(d / "results" / "views" / v / "tiny" / "charts_3d.png")) << v;
+  }
   const auto recs = read_records((d / "results" / "results.jsonl").string());
   ASSERT_EQ(recs.size(), 2u);
   std::set<std::string> labels, values;

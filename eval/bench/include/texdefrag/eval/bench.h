@@ -8,6 +8,9 @@
 // ../shared/data/mmethod_outputs) are evaluated the same way under the tool's name.
 #pragma once
 
+#include "texdefrag/core/mesh.h"
+#include "texdefrag/io/image.h"
+
 #include <nlohmann/json.hpp>
 
 #include <array>
@@ -150,7 +153,8 @@ struct BenchSummary {
 /// pair wins). Pairs already recorded are skipped (failed ones too unless retry_failed).
 /// A failing pair is recorded with status "failed" and its error; it never stops the batch.
 /// With options.views, every successful pair of the invocation without views gets
-/// OUT/views/<label>/<model>/charts_page<k>.png and OUT/views/input/<model>/charts_page<k>.png.
+/// OUT/views/<label>/<model>/charts_page<k>.png, charts_3d.png (and regions_3d.png when the
+/// configuration has a detector), and OUT/views/input/<model>/charts_page<k>.png, charts_3d.png.
 /// Throws BenchError for bad arguments or invalid configurations (before running anything).
 BenchSummary run_bench(const BenchOptions& options);
 
@@ -167,6 +171,24 @@ std::array<uint8_t, 3> chart_colour(int chart);
 /// @param max_size  pixels, >= 16
 /// Returns the written paths. Throws ObjError/ImageError/BenchError naming the file.
 std::vector<std::string> write_chart_views(const std::string& obj_path, const std::string& prefix, int max_size = 1024);
+
+/// Oblique orthographic render (z up, azimuth 35 deg, elevation 40 deg) of `mesh`, flat-shaded
+/// (two-sided Lambert + ambient), z-buffered, each face in chart_colour(face_colour[f]) (grey for
+/// -1), light background, `size` pixels on the longer side.
+/// @param face_colour  one colour id per face (chart or region)
+/// @param size         pixels, >= 16
+Image render_3d(const TexturedMesh& mesh, const std::vector<int>& face_colour, int size = 1024);
+
+/// Writes render_3d of the model coloured by chart (core/charts.h) to `png_path` (folder created).
+/// Returns png_path. Throws ObjError/ImageError naming the file.
+std::string write_chart_render(const std::string& obj_path, const std::string& png_path, int size = 1024);
+
+/// Runs the configuration's detector on the model in this process and writes render_3d coloured by
+/// region to `png_path`. Returns "" (writes nothing) when the detector is detectors.none.
+/// Throws ConfigError/StageError/ObjError/BenchError.
+std::string write_region_render(const std::string& obj_path, const std::string& config_path,
+                                const std::vector<std::string>& overrides, const std::string& png_path,
+                                int size = 1024);
 
 /// Evaluates one pair in this process (the body of the evaluation child):
 /// {"comparison": eval::to_json(compare_files(...)), "eval_time_s", "peak_rss_bytes"}.
