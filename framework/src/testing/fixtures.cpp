@@ -3,6 +3,8 @@
 #include "texdefrag/io/image.h"
 #include "texdefrag/util/paths.h"
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 namespace fs = std::filesystem;
@@ -62,6 +64,71 @@ void write_test_image(const std::string& path, int width, int height, bool gradi
       } else {
         p[0] = 200; p[1] = 120; p[2] = 40;
       }
+    }
+  write_image(path, img, ImageFormat::Png);
+}
+
+void write_smooth_test_image(const std::string& path, int width, int height, double period) {
+  Image img;
+  img.width = width;
+  img.height = height;
+  img.channels = 3;
+  img.pixels.resize(static_cast<size_t>(width) * static_cast<size_t>(height) * 3);
+  const double w = 2 * M_PI / period;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      uint8_t* p = img.at(x, y);
+      p[0] = static_cast<uint8_t>(128 + 100 * std::sin(w * x) * std::cos(0.7 * w * y));
+      p[1] = static_cast<uint8_t>(128 + 100 * std::sin(0.8 * w * (x + y)));
+      p[2] = static_cast<uint8_t>(128 + 100 * std::cos(0.6 * w * x - 0.9 * w * y));
+    }
+  write_image(path, img, ImageFormat::Png);
+}
+
+void write_surface_texture(const TexturedMesh& mesh, int page, const std::string& path, double period_3d,
+                           int padding) {
+  const Page& pg = mesh.pages[static_cast<size_t>(page)];
+  Image img;
+  img.width = pg.width;
+  img.height = pg.height;
+  img.channels = 3;
+  img.pixels.assign(static_cast<size_t>(img.width) * static_cast<size_t>(img.height) * 3, 0);
+  std::vector<uint8_t> interior(static_cast<size_t>(img.width) * static_cast<size_t>(img.height), 0);
+  const double w = 2 * M_PI / period_3d;
+  auto colour = [&](const Vec3& p, uint8_t* out) {
+    out[0] = static_cast<uint8_t>(128 + 100 * std::sin(w * p.x()) * std::cos(0.7 * w * p.y()));
+    out[1] = static_cast<uint8_t>(128 + 100 * std::sin(0.8 * w * (p.x() + p.z())));
+    out[2] = static_cast<uint8_t>(128 + 100 * std::cos(0.6 * w * p.y() - 0.9 * w * p.z()));
+  };
+  // Pass 0 paints the padding (extrapolated), pass 1 the interiors, which win.
+  for (int pass = 0; pass < 2; ++pass)
+    for (size_t f = 0; f < mesh.faces.size(); ++f) {
+      if (mesh.faces[f].page != page) continue;
+      const Vec2 t[3] = {mesh.corner_texel(f, 0), mesh.corner_texel(f, 1), mesh.corner_texel(f, 2)};
+      const double det = (t[1] - t[0]).x() * (t[2] - t[0]).y() - (t[1] - t[0]).y() * (t[2] - t[0]).x();
+      if (det == 0) continue;
+      const double m = pass == 0 ? padding : 0.0;
+      const int x0 = std::max(0, static_cast<int>(std::floor(std::min({t[0].x(), t[1].x(), t[2].x()}) - m)));
+      const int x1 = std::min(img.width - 1, static_cast<int>(std::ceil(std::max({t[0].x(), t[1].x(), t[2].x()}) + m)));
+      const int y0 = std::max(0, static_cast<int>(std::floor(std::min({t[0].y(), t[1].y(), t[2].y()}) - m)));
+      const int y1 = std::min(img.height - 1, static_cast<int>(std::ceil(std::max({t[0].y(), t[1].y(), t[2].y()}) + m)));
+      for (int ty = y0; ty <= y1; ++ty)
+        for (int tx = x0; tx <= x1; ++tx) {
+          const Vec2 c(tx + 0.5, ty + 0.5);  // texel centre, y up
+          const double b1 = ((c - t[0]).x() * (t[2] - t[0]).y() - (c - t[0]).y() * (t[2] - t[0]).x()) / det;
+          const double b2 = ((t[1] - t[0]).x() * (c - t[0]).y() - (t[1] - t[0]).y() * (c - t[0]).x()) / det;
+          const double b0 = 1 - b1 - b2;
+          const int row = img.height - 1 - ty;
+          const size_t idx = static_cast<size_t>(row) * static_cast<size_t>(img.width) + static_cast<size_t>(tx);
+          if (pass == 1) {
+            if (b0 < 0 || b1 < 0 || b2 < 0) continue;
+            interior[idx] = 1;
+          } else if (interior[idx]) {
+            continue;
+          }
+          const Vec3 p = b0 * mesh.corner_position(f, 0) + b1 * mesh.corner_position(f, 1) + b2 * mesh.corner_position(f, 2);
+          colour(p, img.at(tx, row));
+        }
     }
   write_image(path, img, ImageFormat::Png);
 }
