@@ -1,4 +1,5 @@
 // Topology and charts on meshes small enough to check by hand, and invariants on real tiles.
+#include "texdefrag/core/chart_mesh.h"
 #include "texdefrag/core/charts.h"
 #include "texdefrag/core/distortion.h"
 #include "texdefrag/core/topology.h"
@@ -216,4 +217,40 @@ TEST(ChartsReal, InvariantsOnRealTiles) {
                 path.c_str(), m.faces.size(), t.report.welded_vertices, cs.atlas.num_charts, cs.zero_area_charts,
                 cs.seam_edges, t.report.non_manifold_edges);
   }
+}
+
+TEST(ChartMesh, GridChartIsADiskWithUvPositions) {
+  const TexturedMesh m = texdefrag::testing::grid_mesh(3, 2, 100, "x.png");
+  const Topology t = build_topology(m);
+  const ChartSet cs = build_charts(m, t);
+  ASSERT_EQ(cs.atlas.num_charts, 1);
+  const ChartMesh cm = chart_mesh(cs.atlas, 0);
+  EXPECT_EQ(cm.mesh.n_faces(), 12u);
+  EXPECT_EQ(cm.mesh.n_vertices(), 12u);  // 4 x 3 grid points
+  EXPECT_TRUE(cm.refused.empty());
+  EXPECT_EQ(boundary_loops(cm.mesh), 1);
+  // Vertex positions are the wedge UVs in texels.
+  for (auto v : cm.mesh.vertices()) {
+    const Vec2& uv = cs.atlas.wedge_uv[static_cast<size_t>(cm.wedge_of[static_cast<size_t>(v.idx())])];
+    EXPECT_EQ(cm.mesh.point(v)[0], uv.x());
+    EXPECT_EQ(cm.mesh.point(v)[1], uv.y());
+  }
+}
+
+TEST(ChartMesh, NonManifoldFacesAreListedNotDropped) {
+  // Three triangles on one UV edge: OpenMesh refuses the third, which is reported.
+  TexturedMesh m = square(false, false);
+  m.positions.push_back({0.5, 0.5, 1});
+  m.texcoords.push_back({0.8, 0.1});
+  Face c;
+  c.v = {0, 3, 4};
+  c.vt = {0, 3, 4};
+  c.page = 0;
+  m.faces.push_back(c);
+  const Topology t = build_topology(m);
+  const ChartSet cs = build_charts(m, t);
+  ASSERT_EQ(cs.atlas.num_charts, 1);
+  const ChartMesh cm = chart_mesh(cs.atlas, 0);
+  EXPECT_EQ(cm.mesh.n_faces() + cm.refused.size(), 3u);
+  EXPECT_EQ(cm.refused.size(), 1u);
 }
