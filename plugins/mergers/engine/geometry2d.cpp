@@ -103,4 +103,102 @@ bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>&
   return false;
 }
 
+namespace {
+bool strictly_inside(const Vector2d& q, const std::array<Vector2d, 3>& t) {
+  const double s0 = orient2d(t[0], t[1], q), s1 = orient2d(t[1], t[2], q), s2 = orient2d(t[2], t[0], q);
+  return (s0 > 0 && s1 > 0 && s2 > 0) || (s0 < 0 && s1 < 0 && s2 < 0);
+}
+}  // namespace
+
+bool triangles_overlap(const Tri2& a, const Tri2& b) {
+  int shared = 0, sa[3] = {0, 0, 0}, sb[3] = {0, 0, 0};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (a.w[static_cast<size_t>(i)] == b.w[static_cast<size_t>(j)]) {
+        ++shared;
+        sa[i] = sb[j] = 1;
+      }
+  if (shared >= 3) return true;  // the same wedges twice: a duplicated triangle
+  if (shared == 2) {
+    int i = 0, j = 0;
+    while (sa[i]) ++i;
+    while (sb[j]) ++j;
+    int e0 = -1, e1 = -1;
+    for (int k = 0; k < 3; ++k)
+      if (sa[k]) (e0 < 0 ? e0 : e1) = k;
+    const double o1 = orient2d(a.p[static_cast<size_t>(e0)], a.p[static_cast<size_t>(e1)], a.p[static_cast<size_t>(i)]);
+    const double o2 = orient2d(a.p[static_cast<size_t>(e0)], a.p[static_cast<size_t>(e1)], b.p[static_cast<size_t>(j)]);
+    return o1 * o2 > 0;
+  }
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (segments_cross(a.p[static_cast<size_t>(i)], a.p[static_cast<size_t>((i + 1) % 3)], b.p[static_cast<size_t>(j)],
+                         b.p[static_cast<size_t>((j + 1) % 3)]))
+        return true;
+  for (int i = 0; i < 3; ++i)
+    if (!sa[i] && strictly_inside(a.p[static_cast<size_t>(i)], b.p)) return true;
+  for (int j = 0; j < 3; ++j)
+    if (!sb[j] && strictly_inside(b.p[static_cast<size_t>(j)], a.p)) return true;
+  return false;
+}
+
+bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2>& all) {
+  if (moved.empty()) return false;
+  Vector2d lo = moved[0].p[0], hi = lo;
+  double len = 0;
+  for (const Tri2& t : moved)
+    for (int k = 0; k < 3; ++k) {
+      lo = lo.cwiseMin(t.p[static_cast<size_t>(k)]);
+      hi = hi.cwiseMax(t.p[static_cast<size_t>(k)]);
+      len += (t.p[static_cast<size_t>(k)] - t.p[static_cast<size_t>((k + 1) % 3)]).norm();
+    }
+  const Vector2d ext = hi - lo;
+  double cell = std::max(len / (3.0 * static_cast<double>(moved.size())), 1e-9);
+  const double max_cells = 4.0 * static_cast<double>(moved.size()) + 16;
+  while ((ext.x() / cell + 1) * (ext.y() / cell + 1) > max_cells) cell *= 1.5;
+  const int nx = static_cast<int>(ext.x() / cell) + 1, ny = static_cast<int>(ext.y() / cell) + 1;
+  std::vector<std::vector<int>> grid(static_cast<size_t>(nx) * static_cast<size_t>(ny));
+  auto range = [&](const Tri2& t, int& x0, int& x1, int& y0, int& y1) {
+    Vector2d a = t.p[0], b = t.p[0];
+    for (int k = 1; k < 3; ++k) {
+      a = a.cwiseMin(t.p[static_cast<size_t>(k)]);
+      b = b.cwiseMax(t.p[static_cast<size_t>(k)]);
+    }
+    if (b.x() < lo.x() || b.y() < lo.y() || a.x() > hi.x() || a.y() > hi.y()) return false;
+    x0 = std::max(0, static_cast<int>(std::floor((a.x() - lo.x()) / cell)));
+    y0 = std::max(0, static_cast<int>(std::floor((a.y() - lo.y()) / cell)));
+    x1 = std::min(nx - 1, static_cast<int>(std::floor((b.x() - lo.x()) / cell)));
+    y1 = std::min(ny - 1, static_cast<int>(std::floor((b.y() - lo.y()) / cell)));
+    return true;
+  };
+  for (size_t i = 0; i < moved.size(); ++i) {
+    int x0, x1, y0, y1;
+    if (!range(moved[i], x0, x1, y0, y1)) continue;
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x)
+        grid[static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x)].push_back(static_cast<int>(i));
+  }
+  std::vector<int> seen(moved.size(), -1);
+  auto test = [&](const Tri2& t, int self, int stamp) {
+    int x0, x1, y0, y1;
+    if (!range(t, x0, x1, y0, y1)) return false;
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x)
+        for (int i : grid[static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x)]) {
+          if (i == self || seen[static_cast<size_t>(i)] == stamp) continue;
+          seen[static_cast<size_t>(i)] = stamp;
+          const Tri2& m = moved[static_cast<size_t>(i)];
+          if (m.w == t.w) continue;
+          if (triangles_overlap(t, m)) return true;
+        }
+    return false;
+  };
+  int stamp = 0;
+  for (const Tri2& t : all)
+    if (test(t, -1, stamp++)) return true;
+  for (size_t i = 0; i < moved.size(); ++i)
+    if (test(moved[i], static_cast<int>(i), stamp++)) return true;
+  return false;
+}
+
 }  // namespace texdefrag::merge

@@ -45,4 +45,22 @@ struct Segment {
 /// @param all    the other segments of the same chart (may include the moved ones)
 bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>& all);
 
+/// A triangle with the wedge ids of its corners (shared ids mark adjacency).
+struct Tri2 {
+  std::array<int, 3> w{-1, -1, -1};
+  std::array<Eigen::Vector2d, 3> p;
+};
+
+/// True when the interiors of a and b intersect: two edges cross properly, a corner of one that is
+/// not a corner of the other lies strictly inside it, or (sharing an edge) both lie on the same side
+/// of it. Corners are shared when their wedge ids are equal.
+bool triangles_overlap(const Tri2& a, const Tri2& b);
+
+/// Whether any triangle of `moved` overlaps (triangles_overlap) another triangle of `moved` or any
+/// triangle of `all` (entries of `all` equal to a moved triangle, by wedge ids, are skipped). Uniform
+/// grid over the moved triangles' bounding box.
+/// @param moved  triangles whose positions changed
+/// @param all    the other triangles of the same chart
+bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2>& all);
+
 }  // namespace texdefrag::merge

@@ -61,6 +61,7 @@ json MergeReport::to_json() const {
   j["charts_in"] = charts_in;
   j["charts_out"] = charts_out;
   j["locked_charts"] = locked_charts;
+  j["self_overlapping_charts"] = self_overlapping_charts;
   j["candidate_pairs"] = candidates_initial;
   j["merges_attempted"] = attempted;
   j["merges_accepted"] = accepted;
@@ -89,6 +90,7 @@ double seconds_since(Clock::time_point t) { return std::chrono::duration<double>
 struct ChartInfo {
   bool alive = true;
   bool locked = false;
+  bool self_overlap = false;  ///< some of its triangles overlap (inherited from the input)
   int version = 0;
   int region = -1;
   int page = kNoPage;
@@ -130,6 +132,14 @@ class Engine {
     return -1;
   }
   Vec2& uv(int w) { return at_.wedge_uv[static_cast<size_t>(w)]; }
+  Tri2 tri2(int f) const {
+    Tri2 t;
+    for (int k = 0; k < 3; ++k) {
+      t.w[static_cast<size_t>(k)] = wedge(f, k);
+      t.p[static_cast<size_t>(k)] = at_.wedge_uv[static_cast<size_t>(wedge(f, k))];
+    }
+    return t;
+  }
   int wedge(int f, int k) const { return at_.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)]; }
   int chart(int f) const { return at_.face_chart[static_cast<size_t>(f)]; }
   ChartInfo& C(int c) { return charts_[static_cast<size_t>(c)]; }
@@ -137,6 +147,9 @@ class Engine {
   double weighted_err(int f) const;
   bool is_boundary(int f, int k, int c) const;
   double edge_uv_len(int f, int k) const;
+  /// True when the faces of chart c around wedge w wrap: angle sum >= 2 pi at a boundary wedge,
+  /// > 2 pi at an interior one (a single closed fan has exactly 2 pi, up to rounding).
+  bool fan_overlaps(int w, int c) const;
   template <class Fn>
   void faces_of_wedge(int w, int c, Fn&& fn) const;
 
@@ -182,7 +195,7 @@ class Engine {
 
   // ---- per-move scratch with epoch stamps
   int epoch_ = 0;
-  std::vector<int> wstamp_, wmoved_, wrep_, wvisit_, wdone_, fstamp_, fchanged_;
+  std::vector<int> wstamp_, wmoved_, wrep_, wvisit_, wdone_, wfan_, fstamp_, fchanged_;
   std::vector<double> wdist_;
   std::vector<std::pair<int, Vec2>> saved_uv_;
   std::vector<std::pair<int, std::array<int, 3>>> saved_fw_;
@@ -295,6 +308,19 @@ void Engine::setup() {
     if (ch.locked) ++rep_.locked_charts;
     refresh_planarity(c);
   }
+  // Input charts whose triangles already overlap (photogrammetry charts can be multi-sheeted): the
+  // boundary-crossing test does not see a merge that lands on another sheet, so merges touching
+  // them also test triangles (see try_merge).
+  for (int c = 0; c < nc; ++c) {
+    ChartInfo& ch = C(c);
+    if (ch.faces.size() < 2) continue;
+    std::vector<Tri2> tris;
+    tris.reserve(ch.faces.size());
+    for (int f : ch.faces)
+      if (rest_w_[static_cast<size_t>(f)] > 0) tris.push_back(tri2(f));
+    ch.self_overlap = any_triangle_overlap(tris, {});
+    if (ch.self_overlap) ++rep_.self_overlapping_charts;
+  }
   // Seam edges: manifold, two textured non-degenerate faces in different charts.
   for (size_t ei = 0; ei < topo_.edges.size(); ++ei) {
     const Edge& e = topo_.edges[ei];
@@ -312,6 +338,7 @@ void Engine::setup() {
   wmoved_.assign(at_.wedge_uv.size(), 0);
   wdist_.assign(at_.wedge_uv.size(), 0);
   wvisit_.assign(at_.wedge_uv.size(), 0);
+  wfan_.assign(at_.wedge_uv.size(), 0);
   wrep_.assign(at_.wedge_uv.size(), 0);
   wdone_.assign(at_.wedge_uv.size(), 0);
   fstamp_.assign(nf, 0);
@@ -341,6 +368,20 @@ bool Engine::is_boundary(int f, int k, int c) const {
     if ((w0 == g0 && w1 == g1) || (w0 == g1 && w1 == g0)) return false;
   }
   return true;
+}
+
+bool Engine::fan_overlaps(int w, int c) const {
+  double sum = 0;
+  bool boundary = false;
+  faces_of_wedge(w, c, [&](int f, int k) {
+    const Vec2& p = at_.wedge_uv[static_cast<size_t>(wedge(f, k))];
+    const Vec2 a = at_.wedge_uv[static_cast<size_t>(wedge(f, (k + 1) % 3))] - p;
+    const Vec2 b = at_.wedge_uv[static_cast<size_t>(wedge(f, (k + 2) % 3))] - p;
+    sum += std::abs(std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b)));
+    if (!boundary && (is_boundary(f, k, c) || is_boundary(f, (k + 2) % 3, c))) boundary = true;
+  });
+  constexpr double kTwoPi = 6.283185307179586;
+  return boundary ? sum >= kTwoPi * (1 - 1e-9) : sum > kTwoPi * (1 + 1e-9);
 }
 
 double Engine::edge_uv_len(int f, int k) const {
@@ -711,6 +752,21 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
     rollback();
     return false;
   }
+  // Fans: the triangles around a wedge must not wrap over each other. Boundary segments that share
+  // a wedge are never tested for crossing, so a boundary wedge whose incident angles add up to 2 pi
+  // or more (the merge nearly closed a fan whose input angles exceed 2 pi) overlaps without any
+  // crossing; an interior wedge must have exactly 2 pi (more: a pinch of two fans, or a multiple cover).
+  for (int f : changed)
+    for (int k = 0; k < 3; ++k) {
+      const int w = wedge(f, k);
+      if (wfan_[static_cast<size_t>(w)] == epoch_) continue;
+      wfan_[static_cast<size_t>(w)] = epoch_;
+      if (fan_overlaps(w, big)) {
+        reason = "fan_overlap";
+        rollback();
+        return false;
+      }
+    }
   // Self-overlap of the merged chart: moved boundary segments against all its boundary segments.
   std::vector<std::pair<int, int>> boundary;
   boundary.reserve(Bg.boundary.size() + Sm.boundary.size());
@@ -739,6 +795,21 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
     return false;
   }
 
+  if (Bg.self_overlap || Sm.self_overlap) {
+    // A multi-sheeted chart: test the moved triangles against all triangles of the merged chart.
+    // note: conservative: an input overlap among the moved triangles also rejects the merge.
+    std::vector<Tri2> mt, rest;
+    for (int f : Sm.faces)
+      if (rest_w_[static_cast<size_t>(f)] > 0) mt.push_back(tri2(f));
+    for (int f : Bg.faces)
+      if (rest_w_[static_cast<size_t>(f)] > 0) (fchanged_[static_cast<size_t>(f)] == epoch_ ? mt : rest).push_back(tri2(f));
+    if (any_triangle_overlap(mt, rest)) {
+      reason = "overlap";
+      rollback();
+      return false;
+    }
+  }
+
   // Accept: commit distortion, chart data and adjacency.
   for (size_t i = 0; i < changed.size(); ++i) err_w_[static_cast<size_t>(changed[i])] = new_err[i];
   err_sum_ = new_sum;
@@ -752,6 +823,7 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
     for (const auto& [f, k] : Bg.boundary) Bg.border += edge_uv_len(f, k);
   }
   Bg.mom.add(Sm.mom);
+  Bg.self_overlap = Bg.self_overlap || Sm.self_overlap;
   Bg.uv_area += Sm.uv_area;
   for (const auto& [pg, ar] : Sm.page_area) Bg.page_area[pg] += ar;
   Sm.page_area.clear();

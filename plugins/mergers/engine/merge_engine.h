@@ -55,6 +55,7 @@ MergeOptions merge_options_from(const Options& o);
 struct MergeReport {
   size_t charts_in = 0, charts_out = 0;
   size_t locked_charts = 0;           ///< charts never merged (degenerate faces)
+  size_t self_overlapping_charts = 0; ///< input charts whose own triangles overlap (checked by triangles)
   size_t candidates_initial = 0;      ///< candidate chart pairs at the start
   size_t attempted = 0, accepted = 0;
   std::map<std::string, size_t> rejected;  ///< by reason

@@ -70,6 +70,33 @@ TEST(MergeEngine, AnyCrossingManySegments) {
   EXPECT_FALSE(any_crossing(moved, all));
 }
 
+TEST(MergeEngine, TrianglesOverlapByHand) {
+  using V = Eigen::Vector2d;
+  auto T = [](std::array<int, 3> w, V a, V b, V c) {
+    Tri2 t;
+    t.w = w;
+    t.p = {a, b, c};
+    return t;
+  };
+  const Tri2 a = T({0, 1, 2}, V(0, 0), V(2, 0), V(0, 2));
+  // Sharing an edge, on the other side: no overlap; on the same side (a fold): overlap.
+  EXPECT_FALSE(triangles_overlap(a, T({1, 2, 3}, V(2, 0), V(0, 2), V(2, 2))));
+  EXPECT_TRUE(triangles_overlap(a, T({1, 2, 3}, V(2, 0), V(0, 2), V(0.5, 0.5))));
+  // Sharing a vertex: a fan that wraps over the first triangle overlaps; beside it does not.
+  EXPECT_TRUE(triangles_overlap(a, T({0, 4, 5}, V(0, 0), V(1.5, 0.2), V(0.2, 1.5))));
+  EXPECT_FALSE(triangles_overlap(a, T({0, 4, 5}, V(0, 0), V(-1, 0), V(0, -1))));
+  // Disjoint ids: contained, crossing, apart, touching at a point.
+  EXPECT_TRUE(triangles_overlap(a, T({6, 7, 8}, V(0.2, 0.2), V(0.6, 0.2), V(0.2, 0.6))));
+  EXPECT_TRUE(triangles_overlap(a, T({6, 7, 8}, V(1, -1), V(1, 1), V(3, 0))));
+  EXPECT_FALSE(triangles_overlap(a, T({6, 7, 8}, V(3, 3), V(4, 3), V(3, 4))));
+  EXPECT_FALSE(triangles_overlap(a, T({6, 7, 8}, V(2, 0), V(3, 0), V(3, 1))));
+  // any_triangle_overlap: moved against the rest and against each other.
+  std::vector<Tri2> rest = {a};
+  EXPECT_TRUE(any_triangle_overlap({T({6, 7, 8}, V(0.2, 0.2), V(0.6, 0.2), V(0.2, 0.6))}, rest));
+  EXPECT_FALSE(any_triangle_overlap({T({6, 7, 8}, V(3, 3), V(4, 3), V(3, 4))}, rest));
+  EXPECT_TRUE(any_triangle_overlap({T({6, 7, 8}, V(3, 3), V(4, 3), V(3, 4)), T({9, 10, 11}, V(3.2, 3.2), V(3.5, 3.2), V(3.2, 3.5))}, {}));
+}
+
 TEST(MergeEngine, PlanarityTermsByHand) {
   EXPECT_DOUBLE_EQ(planarity_flat(Eigen::Vector3d(0, 2, 4)), 1.0);
   EXPECT_DOUBLE_EQ(planarity_flat(Eigen::Vector3d(1, 2, 4)), 0.5);

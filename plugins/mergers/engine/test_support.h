@@ -73,6 +73,24 @@ struct Run {
     ctx.progress = [](const std::string&, double) { return true; };
   }
 
+  /// Replaces the regions with those of detector stage `name` (created by name, default options).
+  /// Returns false when that detector module is not built.
+  bool detect(const std::string& name) {
+    Registry& r = Registry::instance();
+    r.load_plugins();
+    const StageInfo* info = r.find(name);
+    if (!info) return false;
+    std::unique_ptr<Stage> s = r.create(name);
+    s->set_options(default_options(*info, json::object()));
+    auto* d = dynamic_cast<Detector*>(s.get());
+    if (!d) return false;
+    json rep = json::object();
+    ctx.report = &rep;
+    d->detect(ctx);
+    ctx.report = &report;
+    return true;
+  }
+
   /// Creates stage `name` by name with option overrides and runs it on ctx.
   void merge(const std::string& name, const json& overrides = json::object()) {
     Registry& r = Registry::instance();

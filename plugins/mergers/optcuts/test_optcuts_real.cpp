@@ -2,6 +2,7 @@
 // with one region for all faces (the M-method's behaviour): invariants, and the numbers printed.
 #include "test_support.h"
 
+#include "texdefrag/eval/metrics.h"
 #include "texdefrag/io/obj.h"
 
 #include <gtest/gtest.h>
@@ -9,17 +10,20 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <set>
 
 namespace texdefrag::merge {
 namespace {
 
-void run_real(const std::string& stage, const json& options, double max_fraction_left) {
+void run_real(const std::string& stage, const json& options, double max_fraction_left,
+              const std::string& detector = "") {
   const auto models = texdefrag::testing::real_models(25000);
   if (models.empty()) GTEST_SKIP() << "no real models under ../shared/data";
   for (const std::string& path : models) {
     SCOPED_TRACE(path);
     test::Run run(read_obj(path));
+    if (!detector.empty() && !run.detect(detector)) GTEST_SKIP() << detector << " is not built";
     const auto t0 = std::chrono::steady_clock::now();
     run.merge(stage, options);
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -36,6 +40,26 @@ void run_real(const std::string& stage, const json& options, double max_fraction
     EXPECT_EQ(r["flipped_out"], 0);
     // Chart count drops a lot on photogrammetry tiles (thousands of tiny charts).
     EXPECT_LT(static_cast<double>(out), max_fraction_left * static_cast<double>(in));
+    // Merging never creates UV overlaps: per output chart, overlapping triangle pairs in the atlas are
+    // at most those its faces already had in the input (per input page; eval's exact test).
+    const Atlas& at = run.ctx.atlas;
+    std::map<std::pair<int, int>, std::vector<std::array<Vec2, 3>>> in_tris;
+    std::vector<std::vector<std::array<Vec2, 3>>> out_tris(static_cast<size_t>(at.num_charts));
+    for (size_t f = 0; f < run.mesh.faces.size(); ++f) {
+      if (run.mesh.faces[f].page == kNoPage) continue;
+      const int c = at.face_chart[f];
+      in_tris[{c, run.mesh.faces[f].page}].push_back(
+          {run.mesh.corner_texel(f, 0), run.mesh.corner_texel(f, 1), run.mesh.corner_texel(f, 2)});
+      const auto& w = at.face_wedge[f];
+      out_tris[static_cast<size_t>(c)].push_back({at.wedge_uv[static_cast<size_t>(w[0])],
+                                                 at.wedge_uv[static_cast<size_t>(w[1])],
+                                                 at.wedge_uv[static_cast<size_t>(w[2])]});
+    }
+    size_t ov_in = 0, ov_out = 0;
+    for (const auto& [key, tris] : in_tris) ov_in += eval::count_overlapping_pairs(tris);
+    for (const auto& tris : out_tris) ov_out += eval::count_overlapping_pairs(tris);
+    std::printf("  overlapping pairs within output charts: input %zu, output %zu\n", ov_in, ov_out);
+    EXPECT_LE(ov_out, ov_in);
     // Each chart's page is one of its faces' input pages.
     std::vector<std::set<int>> pages(static_cast<size_t>(run.ctx.atlas.num_charts));
     for (size_t f = 0; f < run.mesh.faces.size(); ++f)
@@ -50,6 +74,10 @@ void run_real(const std::string& stage, const json& options, double max_fraction
 // until the distortion budget is spent (about half the charts go; measured numbers in docs/mergers.md).
 TEST(OptCutsReal, MMethodOrderOnRealTiles) { run_real("mergers.optcuts", {{"priority", "mmethod"}}, 0.25); }
 TEST(OptCutsReal, PlanarityOrderWithoutRegions) { run_real("mergers.optcuts", json::object(), 0.6); }
+// The paper's configuration: region_growing regions, planarity order.
+TEST(OptCutsReal, PlanarityOrderWithRegionGrowing) {
+  run_real("mergers.optcuts", json::object(), 0.5, "detectors.region_growing");
+}
 TEST(ArapReal, MMethodOnRealTiles) { run_real("mergers.arap", {{"priority", "mmethod"}}, 0.25); }
 
 }  // namespace
