@@ -19,7 +19,7 @@
 
 namespace texdefrag::merge {
 
-std::vector<OptionSpec> merge_option_specs() {
+std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
   return {
       opt_enum("priority", "planarity", {"planarity", "mmethod"},
                "Merge order: 'planarity' = largest max(I_a,I_b)*max(area_a,area_b) first (Liu et al.); "
@@ -28,7 +28,7 @@ std::vector<OptionSpec> merge_option_specs() {
       opt_double("global_bound", 0.025,
                  "Reject a merge when the area-weighted ARAP distortion over all textured faces exceeds this")
           .range(0, 1e6),
-      opt_double("local_bound", 0.5,
+      opt_double("local_bound", local_bound_default,
                  "Reject a merge when the area-weighted ARAP error of its free region exceeds this")
           .range(0, 1e6),
       opt_int("max_merges", 100000000, "Stop after this many accepted merges").at_least(0),

@@ -47,7 +47,9 @@ struct MergeOptions {
 };
 
 /// The option declarations shared by every merger built on the engine (name, default, range, help).
-std::vector<OptionSpec> merge_option_specs();
+/// @param local_bound_default  default of `local_bound` (the M-method's 0.5; mergers.optcuts uses a
+///                             tighter one, see docs/mergers.md)
+std::vector<OptionSpec> merge_option_specs(double local_bound_default = 0.5);
 /// Reads the shared options (declared by merge_option_specs) from validated stage options.
 MergeOptions merge_options_from(const Options& o);
 
