@@ -51,6 +51,14 @@ PlaneFit fit_plane(const PlaneMoments& m) {
   return fit;
 }
 
+double plane_rms_distance(const PlaneMoments& m, const Vec3& point, const Vec3& normal) {
+  if (!(m.area > 0)) return 0;
+  // integral((p.n - c.n)^2) = n^T M2 n - 2 (c.n)(M1.n) + A (c.n)^2
+  const double cn = point.dot(normal);
+  const double ss = normal.dot(m.second * normal) - 2 * cn * m.first.dot(normal) + m.area * cn * cn;
+  return std::sqrt(std::max(0.0, ss / m.area));
+}
+
 double normal_angle(const Vec3& a, const Vec3& b) {
   const double na = a.norm(), nb = b.norm();
   if (!(na > 0) || !(nb > 0)) return M_PI / 2;

@@ -46,6 +46,12 @@ struct PlaneFit {
 /// m: moments of a non-empty set; zero area gives an invalid fit.
 PlaneFit fit_plane(const PlaneMoments& m);
 
+/// Root-mean-square distance (model units) of the surface of the set `m` to the plane through
+/// `point` with unit normal `normal` (both in the moments' reference frame): the square root of
+/// integral(((p - point) . normal)^2 dA) / area, computed from the moments in O(1).
+/// m: moments of the set (zero area gives 0); normal: unit vector.
+double plane_rms_distance(const PlaneMoments& m, const Vec3& point, const Vec3& normal);
+
 /// Angle between two directions in radians, in [0, pi] (oriented: opposite normals give pi).
 /// a, b: any non-zero vectors; returns pi/2 when either is zero (no information).
 double normal_angle(const Vec3& a, const Vec3& b);

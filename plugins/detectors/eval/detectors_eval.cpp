@@ -9,9 +9,11 @@
 //   detectors_eval stats OBJ...
 //     Prints the median and 90th percentile angle between the normals of faces sharing a manifold
 //     edge (how noisy a mesh is; compare real tiles with synthetic ones).
-//   detectors_eval render OBJ PNG [--config NAME[=JSON]] [--size N]
+//   detectors_eval render OBJ PNG [--config NAME[=JSON]] [--size N] [--crop x0,y0,x1,y1]
 //     Runs the detector on a model and writes an oblique region-coloured render (texdefrag::bench
-//     render_3d, the paper's Figure 11c style), and prints the detector's report.
+//     render_3d, the paper's Figure 11c style), and prints the detector's report. The configuration
+//     --crop keeps the faces whose centroid lies in that fraction of the x/y bounding box. The
+//     configuration "components" colours the edge-connected components of the welded mesh instead.
 // A development tool for docs/detectors.md; the tests assert what matters.
 #include "common/accuracy.h"
 #include "common/test_meshes.h"
@@ -22,6 +24,7 @@
 #include "texdefrag/synth/synth.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -176,19 +179,64 @@ int run_render(int argc, char** argv) {
   const std::string obj = argv[2], png = argv[3];
   Config cfg = parse_config("detectors.region_growing");
   int size = 1024;
+  std::array<double, 4> crop = {0, 0, 1, 1};
   for (int i = 4; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) throw std::invalid_argument("missing value after " + a);
     const std::string v = argv[++i];
     if (a == "--config") cfg = parse_config(v);
     else if (a == "--size") size = std::stoi(v);
-    else throw std::invalid_argument("unknown argument " + a);
+    else if (a == "--crop") {
+      const auto c = split(v);
+      if (c.size() != 4) throw std::invalid_argument("--crop expects x0,y0,x1,y1 (fractions of the bounding box)");
+      for (size_t k = 0; k < 4; ++k) crop[k] = std::stod(c[k]);
+    } else throw std::invalid_argument("unknown argument " + a);
   }
   const TexturedMesh mesh = read_obj(obj);
+  if (cfg.name == "components") {  // connected components over welded edges (are there cracks?)
+    const Topology topo = build_topology(mesh);
+    std::vector<int> comp(mesh.faces.size(), -1);
+    int nc = 0;
+    for (size_t s0 = 0; s0 < mesh.faces.size(); ++s0) {
+      if (comp[s0] >= 0) continue;
+      std::vector<size_t> stack{s0};
+      comp[s0] = nc;
+      while (!stack.empty()) {
+        const size_t f = stack.back();
+        stack.pop_back();
+        for (int k = 0; k < 3; ++k) {
+          const Edge& e = topo.edges[static_cast<size_t>(topo.face_edge[f][static_cast<size_t>(k)])];
+          for (int i = 0; i < e.num_faces; ++i) {
+            const size_t g = static_cast<size_t>(topo.edge_faces[static_cast<size_t>(e.first_incidence + i)].face);
+            if (comp[g] < 0) comp[g] = nc, stack.push_back(g);
+          }
+        }
+      }
+      ++nc;
+    }
+    write_image(png, bench::render_3d(mesh, comp, size), ImageFormat::Png);
+    std::printf("%s: %zu faces, %d edge-connected components\n", obj.c_str(), mesh.faces.size(), nc);
+    return 0;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   const tmesh::Detection d = tmesh::run_detector(cfg.name, mesh, cfg.options);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  write_image(png, bench::render_3d(mesh, d.regions.face_region, size), ImageFormat::Png);
+  // Crop: faces whose centroid lies in the given fraction of the x/y bounding box (a closer look).
+  TexturedMesh shown = mesh;
+  std::vector<int> colour;
+  Vec3 lo = Vec3::Constant(1e300), hi = -lo;
+  for (const Face& f : mesh.faces)
+    for (int v : f.v) lo = lo.cwiseMin(mesh.positions[static_cast<size_t>(v)]), hi = hi.cwiseMax(mesh.positions[static_cast<size_t>(v)]);
+  shown.faces.clear();
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    Vec3 c = Vec3::Zero();
+    for (int v : mesh.faces[f].v) c += mesh.positions[static_cast<size_t>(v)] / 3;
+    const double fx = (c.x() - lo.x()) / std::max(hi.x() - lo.x(), 1e-12), fy = (c.y() - lo.y()) / std::max(hi.y() - lo.y(), 1e-12);
+    if (fx < crop[0] || fx > crop[2] || fy < crop[1] || fy > crop[3]) continue;
+    shown.faces.push_back(mesh.faces[f]);
+    colour.push_back(d.regions.face_region[f]);
+  }
+  write_image(png, bench::render_3d(shown, colour, size), ImageFormat::Png);
   std::printf("%s: %zu faces, %.3f s incl. topology+charts\n%s\n", obj.c_str(), mesh.faces.size(), s,
               d.report.dump().c_str());
   return 0;

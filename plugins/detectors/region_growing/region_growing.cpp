@@ -10,6 +10,7 @@
 // within the angle threshold of the region's refitted plane normal and its CPI passes; restart while
 // units remain. Then: elongated strips are dissolved into their neighbours, small smoothly curved
 // pieces are grouped into one component, tiny regions join the neighbouring region with more faces.
+#include "common/normals.h"
 #include "common/planarity.h"
 #include "common/region_output.h"
 #include "common/units.h"
@@ -34,11 +35,18 @@ struct Params {
   double split_min_fraction = 0.15;
   bool strips = true;
   double strip_compactness = 0.04;
+  double strip_angle = 40 * M_PI / 180;
   bool curved = true;
   double curved_max_area_fraction = 0.02;
   double curved_border_angle = 20 * M_PI / 180;
   bool jagged = true;
   int min_region_faces = 12;
+  int smoothing_iterations = 5;
+  double smoothing_sigma = 30 * M_PI / 180;
+  int fit_min_faces = 8;
+  double max_plane_distance = 1.0;  // mean edge lengths
+  int tiny_region_faces = 3;
+  double edge = 0;                  // mean edge length of the model (set in detect)
 };
 
 Params read_params(const Options& o) {
@@ -52,11 +60,17 @@ Params read_params(const Options& o) {
   p.split_min_fraction = o.get_double("split_min_fraction");
   p.strips = o.get_bool("elongated_strips");
   p.strip_compactness = o.get_double("strip_compactness");
+  p.strip_angle = o.get_double("strip_max_angle_deg") * M_PI / 180;
   p.curved = o.get_bool("curved_components");
   p.curved_max_area_fraction = o.get_double("curved_max_area_fraction");
   p.curved_border_angle = o.get_double("curved_border_angle_deg") * M_PI / 180;
   p.jagged = o.get_bool("jagged_borders");
   p.min_region_faces = static_cast<int>(o.get_int("min_region_faces"));
+  p.smoothing_iterations = static_cast<int>(o.get_int("normal_smoothing_iterations"));
+  p.smoothing_sigma = o.get_double("normal_smoothing_sigma_deg") * M_PI / 180;
+  p.fit_min_faces = static_cast<int>(o.get_int("fit_min_faces"));
+  p.max_plane_distance = o.get_double("max_plane_distance");
+  p.tiny_region_faces = static_cast<int>(o.get_int("tiny_region_faces"));
   return p;
 }
 
@@ -70,21 +84,19 @@ struct UnionFind {
 };
 
 /// Units: input charts, each split into normal clusters when it is not planar (section 2 of the doc).
-/// Returns face -> unit and fills the split counters.
-std::vector<int> make_units(const StageContext& ctx, const Params& p, int& num_units, json& rep) {
+/// fn: the (filtered) unit face normals used for clustering. Returns face -> unit and fills the
+/// split counters.
+std::vector<int> make_units(const StageContext& ctx, const Params& p, const std::vector<Vec3>& fn, int& num_units,
+                            json& rep) {
   const TexturedMesh& mesh = *ctx.mesh;
   const Topology& topo = *ctx.topology;
   const Atlas& in = ctx.input_charts->atlas;
   const size_t nf = mesh.faces.size();
   std::vector<int> unit(nf, -1);
   const std::vector<std::vector<int>> chart_faces = in.chart_faces();
-  std::vector<Vec3> fn(nf, Vec3::Zero());
   std::vector<double> fa(nf, 0);
-  for (size_t f = 0; f < nf; ++f) {
-    if (in.face_chart[f] < 0) continue;
-    fn[f] = face_normal(mesh, f);
-    fa[f] = face_area_3d(mesh, f);
-  }
+  for (size_t f = 0; f < nf; ++f)
+    if (in.face_chart[f] >= 0) fa[f] = face_area_3d(mesh, f);
   num_units = 0;
   size_t split_charts = 0, split_units = 0;
   std::vector<int> cluster(nf, -1);
@@ -146,22 +158,48 @@ std::vector<int> make_units(const StageContext& ctx, const Params& p, int& num_u
   return unit;
 }
 
+/// Units with their plane moments and fits (the graph) plus, per unit, the sum of its faces'
+/// area-weighted filtered normals: the normal used for units too small for a covariance fit.
+struct Units {
+  UnitGraph g;
+  std::vector<Vec3> smooth;  ///< per unit: sum of area * filtered face normal
+};
+
+/// The normal a set of faces is judged by: the covariance fit's normal (the paper) when the set has
+/// at least fit_min_faces faces, else the direction of its area-weighted filtered normals (the
+/// covariance of 1-3 noisy triangles says little about the surface they lie on).
+Vec3 reliable_normal(const PlaneMoments& m, const PlaneFit& fit, const Vec3& smooth, const Params& p) {
+  if (fit.valid && m.faces >= p.fit_min_faces) return fit.normal;
+  const double len = smooth.norm();
+  if (len > 0) return smooth / len;
+  return fit.normal;
+}
+
+Vec3 unit_normal(const Units& U, int u, const Params& p) {
+  return reliable_normal(U.g.moments[static_cast<size_t>(u)], U.g.fits[static_cast<size_t>(u)],
+                         U.smooth[static_cast<size_t>(u)], p);
+}
+
 /// Per-region aggregates of a unit labelling.
 struct RegionSet {
   int n = 0;
   std::vector<PlaneMoments> m;
   std::vector<PlaneFit> fit;
+  std::vector<Vec3> smooth;
   std::vector<std::map<int, double>> nbr;  // neighbour region -> shared border length
 };
 
-RegionSet aggregate(const UnitGraph& g, const std::vector<int>& unit_region, int n) {
+RegionSet aggregate(const Units& U, const std::vector<int>& unit_region, int n) {
+  const UnitGraph& g = U.g;
   RegionSet rs;
   rs.n = n;
   rs.m.assign(static_cast<size_t>(n), PlaneMoments{});
+  rs.smooth.assign(static_cast<size_t>(n), Vec3::Zero());
   rs.nbr.assign(static_cast<size_t>(n), {});
   for (int u = 0; u < g.num_units; ++u) {
     const int r = unit_region[static_cast<size_t>(u)];
     rs.m[static_cast<size_t>(r)].add(g.moments[static_cast<size_t>(u)]);
+    rs.smooth[static_cast<size_t>(r)] += U.smooth[static_cast<size_t>(u)];
     for (int i = g.adj_offset[static_cast<size_t>(u)]; i < g.adj_offset[static_cast<size_t>(u) + 1]; ++i) {
       const int s = unit_region[static_cast<size_t>(g.adj[static_cast<size_t>(i)])];
       if (s != r) rs.nbr[static_cast<size_t>(r)][s] += g.adj_length[static_cast<size_t>(i)];
@@ -179,8 +217,18 @@ int compact_labels(std::vector<int>& unit_region) {
   return static_cast<int>(id.size());
 }
 
+/// Whether a set (moments m, normal n) fits the plane of a region (fit f, normal rn): normals
+/// within max_angle (radians) and RMS distance of the set to the region's plane within
+/// max_plane_distance mean edge lengths.
+bool fits_plane(const PlaneMoments& m, const Vec3& n, const PlaneFit& f, const Vec3& rn, double max_angle,
+                const Params& p) {
+  if (!f.valid || normal_angle(n, rn) >= max_angle) return false;
+  return plane_rms_distance(m, f.centroid, rn) <= p.max_plane_distance * p.edge;
+}
+
 /// Patch-based growing (section 2.1.2). Units without area are left unassigned (-1).
-std::vector<int> grow(const UnitGraph& g, const Params& p, int& n, json& rep) {
+std::vector<int> grow(const Units& U, const Params& p, int& n, json& rep) {
+  const UnitGraph& g = U.g;
   const size_t nu = static_cast<size_t>(g.num_units);
   std::vector<int> order;
   for (int u = 0; u < g.num_units; ++u)
@@ -188,6 +236,8 @@ std::vector<int> grow(const UnitGraph& g, const Params& p, int& n, json& rep) {
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
     return g.moments[static_cast<size_t>(a)].area > g.moments[static_cast<size_t>(b)].area;
   });
+  std::vector<Vec3> un(nu);
+  for (int u = 0; u < g.num_units; ++u) un[static_cast<size_t>(u)] = unit_normal(U, u, p);
   std::vector<int> region(nu, -1);
   size_t angle_rej = 0, cpi_rej = 0;
   n = 0;
@@ -196,7 +246,8 @@ std::vector<int> grow(const UnitGraph& g, const Params& p, int& n, json& rep) {
     if (region[static_cast<size_t>(s0)] >= 0) continue;
     const int r = n++;
     PlaneMoments rm = g.moments[static_cast<size_t>(s0)];
-    PlaneFit rf = g.fits[static_cast<size_t>(s0)];
+    Vec3 rsmooth = U.smooth[static_cast<size_t>(s0)];
+    Vec3 rn = un[static_cast<size_t>(s0)];
     region[static_cast<size_t>(s0)] = r;
     seeds.assign(1, s0);
     while (!seeds.empty()) {
@@ -205,19 +256,19 @@ std::vector<int> grow(const UnitGraph& g, const Params& p, int& n, json& rep) {
       for (int i = g.adj_offset[static_cast<size_t>(s)]; i < g.adj_offset[static_cast<size_t>(s) + 1]; ++i) {
         const int v = g.adj[static_cast<size_t>(i)];
         if (region[static_cast<size_t>(v)] >= 0 || !g.fits[static_cast<size_t>(v)].valid) continue;
-        const PlaneFit& vf = g.fits[static_cast<size_t>(v)];
-        const double theta = normal_angle(vf.normal, rf.normal);
+        const double theta = normal_angle(un[static_cast<size_t>(v)], rn);
         if (theta >= p.angle) {
           ++angle_rej;
           continue;
         }
-        if (planarity_index(vf, theta, p.w) < p.cpi_min) {
+        if (planarity_index(g.fits[static_cast<size_t>(v)], theta, p.w) < p.cpi_min) {
           ++cpi_rej;
           continue;
         }
         region[static_cast<size_t>(v)] = r;
         rm.add(g.moments[static_cast<size_t>(v)]);
-        rf = fit_plane(rm);
+        rsmooth += U.smooth[static_cast<size_t>(v)];
+        rn = reliable_normal(rm, fit_plane(rm), rsmooth, p);
         seeds.push_back(v);
       }
     }
@@ -256,13 +307,18 @@ void place_zero_area_units(const UnitGraph& g, std::vector<int>& region, int& n,
 }
 
 /// Refinement: elongated strips (compactness < threshold, a neighbour with more faces) are dissolved;
-/// each of their units goes to the adjacent non-strip region sharing the longest border with it.
-void dissolve_strips(const UnitGraph& g, const Params& p, std::vector<int>& region, int& n, json& rep) {
-  const RegionSet rs = aggregate(g, region, n);
+/// each of their units goes to the adjacent non-strip region whose plane it fits (fits_plane with
+/// the wider strip angle: strips are ledges, beams, cornices tilted against their facade),
+/// sharing the longest border with it; units that fit no neighbour stay in the strip's region.
+void dissolve_strips(const Units& U, const Params& p, std::vector<int>& region, int& n, json& rep) {
+  const UnitGraph& g = U.g;
+  const RegionSet rs = aggregate(U, region, n);
   std::vector<uint8_t> strip(static_cast<size_t>(n), 0);
+  std::vector<Vec3> rn(static_cast<size_t>(n));
   size_t strips = 0;
   for (int r = 0; r < n; ++r) {
     const PlaneFit& f = rs.fit[static_cast<size_t>(r)];
+    rn[static_cast<size_t>(r)] = reliable_normal(rs.m[static_cast<size_t>(r)], f, rs.smooth[static_cast<size_t>(r)], p);
     if (!f.valid || compactness_term(f.eigenvalues[1], f.eigenvalues[2]) >= p.strip_compactness) continue;
     bool bigger = false;
     for (const auto& [s, len] : rs.nbr[static_cast<size_t>(r)])
@@ -274,7 +330,7 @@ void dissolve_strips(const UnitGraph& g, const Params& p, std::vector<int>& regi
   }
   std::vector<uint8_t> free(static_cast<size_t>(g.num_units), 0);
   for (int u = 0; u < g.num_units; ++u) free[static_cast<size_t>(u)] = strip[static_cast<size_t>(region[static_cast<size_t>(u)])];
-  size_t moved = 0;
+  size_t moved = 0, kept = 0;
   bool changed = true;
   while (changed) {
     changed = false;
@@ -285,26 +341,40 @@ void dissolve_strips(const UnitGraph& g, const Params& p, std::vector<int>& regi
         const int v = g.adj[static_cast<size_t>(i)];
         if (!free[static_cast<size_t>(v)]) len[region[static_cast<size_t>(v)]] += g.adj_length[static_cast<size_t>(i)];
       }
-      if (len.empty()) continue;
-      region[static_cast<size_t>(u)] = std::max_element(len.begin(), len.end(), [](const auto& a, const auto& b) { return a.second < b.second; })->first;
+      const Vec3 n_u = unit_normal(U, u, p);
+      int best = -1;
+      double best_len = 0;
+      for (const auto& [r, l] : len) {
+        if (l <= best_len || strip[static_cast<size_t>(r)]) continue;
+        if (!fits_plane(g.moments[static_cast<size_t>(u)], n_u, rs.fit[static_cast<size_t>(r)], rn[static_cast<size_t>(r)], p.strip_angle, p)) continue;
+        best = r;
+        best_len = l;
+      }
+      if (best < 0) continue;
+      region[static_cast<size_t>(u)] = best;
       free[static_cast<size_t>(u)] = 0;
       ++moved;
       changed = true;
     }
   }
+  for (int u = 0; u < g.num_units; ++u) kept += free[static_cast<size_t>(u)];
   n = compact_labels(region);
   rep["strip_regions"] = strips;
   rep["strip_units_moved"] = moved;
+  rep["strip_units_kept"] = kept;
 }
 
 /// Refinement: adjacent small regions (area under a fraction of the textured area) whose shared
 /// border is smooth (border-length-weighted mean angle between the units facing each other under a
 /// threshold) are grouped into one component, as long as the component stays small.
-void group_curved(const UnitGraph& g, const Params& p, std::vector<int>& region, int& n, json& rep) {
-  const RegionSet rs = aggregate(g, region, n);
+void group_curved(const Units& U, const Params& p, std::vector<int>& region, int& n, json& rep) {
+  const UnitGraph& g = U.g;
+  const RegionSet rs = aggregate(U, region, n);
   double total = 0;
   for (const auto& m : rs.m) total += m.area;
   const double cap = p.curved_max_area_fraction * total;
+  std::vector<Vec3> un(static_cast<size_t>(g.num_units));
+  for (int u = 0; u < g.num_units; ++u) un[static_cast<size_t>(u)] = unit_normal(U, u, p);
   // Border angle between adjacent regions, weighted by shared length.
   std::map<std::pair<int, int>, std::pair<double, double>> border;  // (angle * len, len)
   for (int u = 0; u < g.num_units; ++u)
@@ -314,7 +384,7 @@ void group_curved(const UnitGraph& g, const Params& p, std::vector<int>& region,
       if (a >= b || !(rs.m[static_cast<size_t>(a)].area < cap) || !(rs.m[static_cast<size_t>(b)].area < cap)) continue;
       const double len = g.adj_length[static_cast<size_t>(i)];
       auto& e = border[{a, b}];
-      e.first += len * normal_angle(g.fits[static_cast<size_t>(u)].normal, g.fits[static_cast<size_t>(v)].normal);
+      e.first += len * normal_angle(un[static_cast<size_t>(u)], un[static_cast<size_t>(v)]);
       e.second += len;
     }
   std::vector<std::tuple<double, int, int>> pairs;
@@ -342,40 +412,56 @@ void group_curved(const UnitGraph& g, const Params& p, std::vector<int>& region,
   rep["curved_merges"] = grouped;
 }
 
-/// Refinement: regions with fewer than min_region_faces faces join the neighbouring region with the
-/// most faces (smallest first, sizes updated as they grow).
-void absorb_tiny(const UnitGraph& g, const Params& p, std::vector<int>& region, int& n, json& rep) {
-  const RegionSet rs = aggregate(g, region, n);
-  std::vector<int> faces(static_cast<size_t>(n));
-  for (int r = 0; r < n; ++r) faces[static_cast<size_t>(r)] = rs.m[static_cast<size_t>(r)].faces;
+/// Refinement (jagged borders): regions with fewer than min_region_faces faces, smallest first,
+/// join the neighbouring region whose plane they fit (fits_plane: angle and distance), the one with
+/// the most faces among those; a region that fits none stays alone unless it has at most
+/// tiny_region_faces faces, then it joins the neighbour with the most faces (the paper's rule).
+/// Sizes, moments and normals are updated as regions grow.
+void absorb_small(const Units& U, const Params& p, std::vector<int>& region, int& n, json& rep) {
+  const RegionSet rs = aggregate(U, region, n);
+  std::vector<PlaneMoments> m = rs.m;
+  std::vector<Vec3> smooth = rs.smooth;
   std::vector<int> order(static_cast<size_t>(n));
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return faces[static_cast<size_t>(a)] < faces[static_cast<size_t>(b)]; });
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return m[static_cast<size_t>(a)].faces < m[static_cast<size_t>(b)].faces; });
   UnionFind uf(static_cast<size_t>(n));
   std::vector<std::vector<int>> members(static_cast<size_t>(n));
   for (int r = 0; r < n; ++r) members[static_cast<size_t>(r)] = {r};
-  size_t absorbed = 0, moved_faces = 0;
+  size_t absorbed = 0, by_size = 0, kept = 0, moved_faces = 0;
   for (int r : order) {
     const int root = uf.find(r);
-    if (faces[static_cast<size_t>(root)] >= p.min_region_faces) continue;
-    // Neighbours of the group rooted at `root`: those of all its members.
+    if (root != r || m[static_cast<size_t>(root)].faces >= p.min_region_faces) continue;
     std::map<int, double> len;
-    for (int m : members[static_cast<size_t>(root)])
-      for (const auto& [s, l] : rs.nbr[static_cast<size_t>(m)]) len[uf.find(s)] += l;
-    int best = -1;
-    double best_len = 0;
+    for (int mb : members[static_cast<size_t>(root)])
+      for (const auto& [s, l] : rs.nbr[static_cast<size_t>(mb)]) len[uf.find(s)] += l;
+    const PlaneMoments& sm = m[static_cast<size_t>(root)];
+    const Vec3 sn = reliable_normal(sm, fit_plane(sm), smooth[static_cast<size_t>(root)], p);
+    int best = -1, any = -1;
+    double best_len = 0, any_len = 0;
+    auto better = [&](int cand, double l, int cur, double cur_len) {
+      if (cur < 0) return true;
+      const int fc = m[static_cast<size_t>(cand)].faces, fb = m[static_cast<size_t>(cur)].faces;
+      return fc > fb || (fc == fb && l > cur_len);
+    };
     for (const auto& [s, l] : len) {
       if (s == root) continue;
-      if (best < 0 || faces[static_cast<size_t>(s)] > faces[static_cast<size_t>(best)] ||
-          (faces[static_cast<size_t>(s)] == faces[static_cast<size_t>(best)] && l > best_len)) {
-        best = s;
-        best_len = l;
-      }
+      if (better(s, l, any, any_len)) any = s, any_len = l;
+      const PlaneFit tf = fit_plane(m[static_cast<size_t>(s)]);
+      const Vec3 tn = reliable_normal(m[static_cast<size_t>(s)], tf, smooth[static_cast<size_t>(s)], p);
+      if (fits_plane(sm, sn, tf, tn, p.angle, p) && better(s, l, best, best_len)) best = s, best_len = l;
     }
-    if (best < 0) continue;
+    if (best < 0 && sm.faces <= p.tiny_region_faces && any >= 0) {
+      best = any;
+      ++by_size;
+    }
+    if (best < 0) {
+      ++kept;
+      continue;
+    }
     uf.p[static_cast<size_t>(root)] = best;
-    moved_faces += static_cast<size_t>(faces[static_cast<size_t>(root)]);
-    faces[static_cast<size_t>(best)] += faces[static_cast<size_t>(root)];
+    moved_faces += static_cast<size_t>(sm.faces);
+    m[static_cast<size_t>(best)].add(sm);
+    smooth[static_cast<size_t>(best)] += smooth[static_cast<size_t>(root)];
     auto& mb = members[static_cast<size_t>(best)];
     mb.insert(mb.end(), members[static_cast<size_t>(root)].begin(), members[static_cast<size_t>(root)].end());
     members[static_cast<size_t>(root)].clear();
@@ -384,6 +470,8 @@ void absorb_tiny(const UnitGraph& g, const Params& p, std::vector<int>& region, 
   for (int& r : region) r = uf.find(r);
   n = compact_labels(region);
   rep["jagged_regions_absorbed"] = absorbed;
+  rep["jagged_absorbed_by_size"] = by_size;
+  rep["jagged_small_regions_kept"] = kept;
   rep["jagged_faces_moved"] = moved_faces;
 }
 
@@ -401,15 +489,21 @@ class RegionGrowingDetector final : public Detector {
         opt_double("w_flatness", 0.4, "CPI weight w1 of the flatness term 1 - s1/s2").range(0, 1),
         opt_double("w_compactness", 0.3, "CPI weight w2 of the compactness term s2/s3").range(0, 1),
         opt_double("w_normal", 0.3, "CPI weight w3 of the normal-consistency term 1 - sin(theta)").range(0, 1),
+        opt_int("normal_smoothing_iterations", 5, "Bilateral filter passes over the face normals before units are judged (0 = raw normals)").range(0, 100),
+        opt_double("normal_smoothing_sigma_deg", 30, "Width of the bilateral filter's similarity weight: neighbours at larger angles count little").range(1, 180).unit("deg"),
+        opt_int("fit_min_faces", 8, "Units and regions with fewer faces are judged by their area-weighted filtered normal instead of their covariance fit").range(1, 1000000),
         opt_bool("split_nonplanar_patches", true, "Split a chart whose faces form several normal clusters (a chart wrapping a building corner) into one unit per cluster"),
         opt_double("split_min_fraction", 0.15, "A chart is split only when at least two of its normal clusters each hold this fraction of its area").range(0, 0.5),
-        opt_bool("elongated_strips", true, "Refinement: dissolve strip-shaped regions into their neighbours"),
+        opt_bool("elongated_strips", true, "Refinement: dissolve strip-shaped regions into the neighbours whose plane their units fit"),
         opt_double("strip_compactness", 0.04, "A region is a strip when s2/s3 of its points is below this (0.04: length over 5 times the width)").range(0, 1),
+        opt_double("strip_max_angle_deg", 40, "A strip's unit joins a neighbouring region only when their normals are within this angle (a ledge or beam goes to its facade; a narrow roof never joins a wall)").range(0, 90).unit("deg"),
         opt_bool("curved_components", true, "Refinement: group adjacent small regions joined by a smooth border into one component"),
         opt_double("curved_max_area_fraction", 0.02, "Small region / component: area under this fraction of the textured area").range(0, 1),
         opt_double("curved_border_angle_deg", 20, "A border is smooth when the mean angle between the units facing each other across it is below this").range(0, 90).unit("deg"),
-        opt_bool("jagged_borders", true, "Refinement: regions with fewer than min_region_faces faces join the neighbouring region with more faces"),
-        opt_int("min_region_faces", 12, "Regions smaller than this are absorbed by the jagged-border refinement").range(1, 1000000),
+        opt_bool("jagged_borders", true, "Refinement: regions with fewer than min_region_faces faces join the neighbouring region whose plane they fit, preferring more faces"),
+        opt_int("min_region_faces", 12, "Regions smaller than this are absorbed by the jagged-border refinement when they fit a neighbour's plane").range(1, 1000000),
+        opt_double("max_plane_distance", 1.0, "Fit to a neighbour's plane (refinements): RMS distance at most this many mean edge lengths").range(0, 1000),
+        opt_int("tiny_region_faces", 3, "Regions with at most this many faces that fit no neighbour join the neighbour with the most faces").range(0, 1000000),
     };
     for (OptionSpec& o : output_options()) i.options.push_back(std::move(o));
     i.create = [] { return std::make_unique<RegionGrowingDetector>(); };
@@ -419,27 +513,35 @@ class RegionGrowingDetector final : public Detector {
   void detect(StageContext& ctx) override {
     if (!ctx.mesh || !ctx.topology || !ctx.input_charts || !ctx.report)
       throw StageError(std::string(kName) + ": needs the mesh, its topology, its charts and a report node");
-    const Params p = read_params(options());
+    Params p = read_params(options());
     json& rep = *ctx.report;
     ctx.step(kName, 0.0);
+    p.edge = mean_edge_length(*ctx.mesh, *ctx.topology);
+    rep["mean_edge_length"] = p.edge;
+    const std::vector<Vec3> fn = filter_face_normals(*ctx.mesh, *ctx.topology, p.smoothing_iterations, p.smoothing_sigma);
+    ctx.step(kName, 0.1);
     int nu = 0;
-    std::vector<int> face_unit = make_units(ctx, p, nu, rep);
+    std::vector<int> face_unit = make_units(ctx, p, fn, nu, rep);
     ctx.step(kName, 0.2);
-    const UnitGraph g = build_unit_graph(*ctx.mesh, *ctx.topology, std::move(face_unit), nu, reference_point(*ctx.mesh));
+    Units U;
+    U.g = build_unit_graph(*ctx.mesh, *ctx.topology, std::move(face_unit), nu, reference_point(*ctx.mesh));
+    U.smooth.assign(static_cast<size_t>(nu), Vec3::Zero());
+    for (size_t f = 0; f < fn.size(); ++f)
+      if (U.g.face_unit[f] >= 0) U.smooth[static_cast<size_t>(U.g.face_unit[f])] += face_area_3d(*ctx.mesh, f) * fn[f];
     rep["units"] = nu;
     ctx.step(kName, 0.4);
     int n = 0;
-    std::vector<int> region = grow(g, p, n, rep);
-    place_zero_area_units(g, region, n, rep);
+    std::vector<int> region = grow(U, p, n, rep);
+    place_zero_area_units(U.g, region, n, rep);
     n = compact_labels(region);
     ctx.step(kName, 0.7);
-    if (p.strips) dissolve_strips(g, p, region, n, rep);
-    if (p.curved) group_curved(g, p, region, n, rep);
-    if (p.jagged) absorb_tiny(g, p, region, n, rep);
+    if (p.strips) dissolve_strips(U, p, region, n, rep);
+    if (p.curved) group_curved(U, p, region, n, rep);
+    if (p.jagged) absorb_small(U, p, region, n, rep);
     ctx.step(kName, 0.9);
     std::vector<int> face_label(ctx.mesh->faces.size(), -1);
     for (size_t f = 0; f < face_label.size(); ++f)
-      if (g.face_unit[f] >= 0) face_label[f] = region[static_cast<size_t>(g.face_unit[f])];
+      if (U.g.face_unit[f] >= 0) face_label[f] = region[static_cast<size_t>(U.g.face_unit[f])];
     ctx.regions = regions_from_labels(face_label);
     report_region_stats(ctx.regions, rep);
     write_region_outputs(kName, options(), ctx);
