@@ -11,6 +11,7 @@
 // aligned segment ends) minimising the new local peak y + h, ties broken by the space it encloses
 // and then the leftmost position. A page that cannot take a rectangle under max_page_size passes it
 // to the next page.
+#include "texdefrag/packers/horizon.h"
 #include "texdefrag/packers/packing.h"
 #include "texdefrag/stage/registry.h"
 
@@ -151,6 +152,14 @@ class PageState {
     return {x, y, w, h};
   }
 
+  /// The horizon's height per column (texels), for the outline tail.
+  std::vector<int> heights() const {
+    std::vector<int> h(static_cast<size_t>(width_), 0);
+    for (const Seg& s : sky_)
+      for (int x = s.x; x < s.x + s.w; ++x) h[static_cast<size_t>(x)] = s.y;
+    return h;
+  }
+
  private:
   void add_holes(const std::vector<Rect>& pieces, int min_side) {
     for (const Rect& p : pieces) {
@@ -179,11 +188,15 @@ class PageState {
   std::vector<Rect> holes_; ///< enclosed unused space, as possibly overlapping maximal rectangles
 };
 
+/// tail: charts from order[tail] on are small; after the enclosed spaces they are dropped by their
+/// outline on the horizon (Tetris drop), with `profiles` per chart id.
 PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, const std::vector<int>& order,
+                              size_t tail, const std::vector<std::vector<packing::Profile>>& profiles,
                               int width, const StageContext& ctx) {
   PackResult r;
   r.placements.assign(in.charts.size(), Placement{});
   std::vector<PageState> pages;
+  std::vector<packing::Horizon> horizons;  // the pages' horizons once the tail starts
   // Smallest short side among the charts still to come: holes narrower than that are dropped.
   std::vector<int> suffix_min(order.size() + 1, INT_MAX);
   for (size_t i = order.size(); i-- > 0;) {
@@ -220,6 +233,27 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
       if (best >= 0) {
         at = pg.place_in_hole(best_hole, packing::padded_w(c, best_q, s), packing::padded_h(c, best_q, s), min_side);
         ++r.hole_fills;
+      } else if (n >= tail) {
+        // 3. small charts: outline drop on the horizon.
+        while (horizons.size() < pages.size()) horizons.emplace_back(pages[horizons.size()].heights());
+        packing::Horizon& hz = horizons[p];
+        const auto& profs = profiles[static_cast<size_t>(c.id)];
+        packing::Drop d;
+        for (size_t q = 0; q < profs.size(); ++q) {
+          if (profs[q].duplicate) continue;
+          const packing::Drop e = packing::best_drop(hz, s.max_page_size, profs[q]);
+          if (e.found && (!d.found || e.cost < d.cost || (e.cost == d.cost && e.top < d.top))) {
+            d = e;
+            best_q = static_cast<int>(q);
+          }
+        }
+        if (!d.found) {
+          if (fresh) break;
+          continue;
+        }
+        hz.place(profs[static_cast<size_t>(best_q)], d);
+        ++r.outline_drops;
+        at = Rect{d.x, d.y, 0, 0};
       } else {
         // 2. on the horizon, lowest new peak.
         bool found = false;
@@ -266,6 +300,11 @@ class SquareTetris : public Packer {
     i.description = "Square Tetris (Liu et al. 2024): minimum-area rectangles on a horizon, enclosed spaces filled first";
     i.doc = "docs/packers.md";
     i.options = packing::common_options(true, 5);
+    i.options.push_back(opt_int("tail_side", 0,
+                                "Charts whose padded box is smaller than tail_side^2 texels are packed last: into enclosed "
+                                "spaces, else dropped by their outline on the horizon (0: rectangles only)")
+                            .range(0, 4096)
+                            .unit("texels"));
     i.create = [] { return std::make_unique<SquareTetris>(); };
     return i;
   }
@@ -277,12 +316,25 @@ class SquareTetris : public Packer {
     const PackInput in = packing::prepare_charts(ctx, s, name);
     packing::check_chart_sizes(in, s, name);
     const std::vector<int> order = packing::order_by_area(in, s);
+    const long long tail_side = options().get_int("tail_side");
+    size_t tail = order.size();
+    while (tail > 0) {
+      const PackChart& c = in.charts[static_cast<size_t>(order[tail - 1])];
+      if (static_cast<long long>(packing::padded_w(c, 0, s)) * packing::padded_h(c, 0, s) >= tail_side * tail_side) break;
+      --tail;
+    }
+    std::vector<std::vector<packing::Profile>> profiles(in.charts.size());
+    for (size_t n = tail; n < order.size(); ++n)
+      profiles[static_cast<size_t>(order[n])] = packing::make_profiles(in.charts[static_cast<size_t>(order[n])], s);
     const PackResult r = packing::pack_best_width(
-        in, s, [&](int width) { return pack_square_tetris(in, s, order, width, ctx); });
+        in, s, [&](int width) { return pack_square_tetris(in, s, order, tail, profiles, width, ctx); });
     ctx.step(name, 1.0);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     packing::write_layout(ctx, in, r, ms);
-    if (ctx.report) (*ctx.report)["hole_fills"] = r.hole_fills;
+    if (ctx.report) {
+      (*ctx.report)["hole_fills"] = r.hole_fills;
+      (*ctx.report)["outline_drops"] = r.outline_drops;
+    }
   }
 };
 

@@ -103,3 +103,24 @@ TEST(PackersSquareTetris, RealTiles) {
   if (res.empty()) GTEST_SKIP() << "no real models";
   for (const auto& r : res) std::cout << kName << " " << r.first << " efficiency " << r.second << "\n";
 }
+
+TEST(PackersSquareTetris, OutlineTailNestsSmallCharts) {
+  // Two right triangles with 100-texel legs: as rectangles they need two 104 x 104 padded boxes
+  // side by side (at least 208 x 104 texels); in the outline tail (tail_side 200 > 104) the second
+  // one, turned by 180 degrees, nests against the first's hypotenuse, so the page is smaller.
+  const std::vector<std::vector<Vec2>> polys = {{{0, 0}, {100, 0}, {0, 100}}, {{200, 0}, {300, 0}, {200, 100}}};
+  auto rect = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}});
+  expect_valid_layout(*rect, 4);
+  EXPECT_EQ(rect->report.at("outline_drops").get<int>(), 0);
+  auto tail = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}, {"tail_side", 200}});
+  expect_valid_layout(*tail, 4);
+  EXPECT_EQ(tail->report.at("outline_drops").get<int>(), 2);
+  EXPECT_EQ(exact_chart_fraction(*tail), 1.0);
+  auto area = [](const PackRun& r) {
+    double a = 0;
+    for (const auto& p : r.ctx.layout.pages) a += static_cast<double>(p.width) * p.height;
+    return a;
+  };
+  EXPECT_GE(area(*rect), 208.0 * 104.0);
+  EXPECT_LT(area(*tail), area(*rect));
+}

@@ -112,6 +112,7 @@ struct PackResult {
   int pages = 0;
   std::vector<Layout::PageSize> sizes;  ///< trimmed and rounded page sizes
   size_t hole_fills = 0;                ///< charts placed into enclosed unused space (square_tetris)
+  size_t outline_drops = 0;             ///< small charts dropped by outline (square_tetris tail)
   double total_area() const;            ///< texels^2 of all pages
 };
 
