@@ -95,7 +95,7 @@ struct Row {
 };
 
 /// Regions holding at least 10% wall faces and 10% roof faces (and >= 10 faces).
-int wall_roof_regions(const std::vector<int>& region, const std::vector<synth::SemanticClass>& cls) {
+int wall_roof_regions(const std::vector<int>& region, const std::vector<synth::SemanticClass>& cls, bool verbose) {
   std::map<int, std::array<int, 3>> count;  // wall, roof, all
   for (size_t f = 0; f < region.size(); ++f) {
     if (region[f] < 0) continue;
@@ -105,7 +105,11 @@ int wall_roof_regions(const std::vector<int>& region, const std::vector<synth::S
     ++c[2];
   }
   int mixed = 0;
-  for (const auto& [r, c] : count) mixed += c[2] >= 10 && c[0] >= 0.1 * c[2] && c[1] >= 0.1 * c[2];
+  for (const auto& [r, c] : count) {
+    const bool m = c[2] >= 10 && c[0] >= 0.1 * c[2] && c[1] >= 0.1 * c[2];
+    mixed += m;
+    if (m && verbose) std::printf("  region %d: %d faces, %d wall, %d roof\n", r, c[2], c[0], c[1]);
+  }
   return mixed;
 }
 
@@ -161,8 +165,39 @@ int run_synth(int argc, char** argv) {
         r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const auto s = detectors::score_segmentation(d.regions.face_region, m.truth.face_plane);
         r.accuracy = s.accuracy, r.regions = s.regions, r.truth = s.truth_planes, r.over = s.over_segmented;
+        if (stats) {  // regions holding >= 20 faces of each of two or more main planes
+          std::map<int, std::map<int, int>> parts;
+          for (size_t f = 0; f < main_truth.size(); ++f)
+            if (main_truth[f] >= 0) ++parts[d.regions.face_region[f]][main_truth[f]];
+          for (const auto& [reg, planes] : parts) {
+            std::string line;
+            int big = 0;
+            for (const auto& [pl, cnt] : planes) {
+              if (cnt < 20) continue;
+              ++big;
+              const auto& P = m.truth.planes[static_cast<size_t>(pl)];
+              char buf[160];
+              std::snprintf(buf, sizeof buf, " plane %d (%s, n %.2f %.2f %.2f, off %.2f): %d", pl, synth::to_string(P.semantic),
+                            P.normal.x(), P.normal.y(), P.normal.z(), P.offset, cnt);
+              line += buf;
+            }
+            if (big >= 2) std::printf("  region %d holds%s\n", reg, line.c_str());
+          }
+          std::map<int, std::map<int, int>> split_of;  // main plane -> region -> faces
+          for (size_t f = 0; f < main_truth.size(); ++f)
+            if (main_truth[f] >= 0) ++split_of[main_truth[f]][d.regions.face_region[f]];
+          for (const auto& [pl, regs] : split_of) {
+            int all = 0, top = 0;
+            for (const auto& [rg, cnt] : regs) all += cnt, top = std::max(top, cnt);
+            if (all < 50 || top >= 0.9 * all) continue;
+            const auto& P = m.truth.planes[static_cast<size_t>(pl)];
+            std::printf("  plane %d (%s%s, n %.2f %.2f %.2f) of %d faces split, largest part %d, %zu regions\n", pl,
+                        synth::to_string(P.semantic), P.curved ? " curved" : "", P.normal.x(), P.normal.y(), P.normal.z(), all,
+                        top, regs.size());
+          }
+        }
         r.main_accuracy = detectors::score_segmentation(d.regions.face_region, main_truth).accuracy;
-        r.under = s.under_segmented, r.mixed = wall_roof_regions(d.regions.face_region, m.truth.face_class);
+        r.under = s.under_segmented, r.mixed = wall_roof_regions(d.regions.face_region, m.truth.face_class, stats);
         r.print(arch + "_" + seed + " " + std::to_string(m.mesh.faces.size()), configs[k].label);
         per[k].add(r);
         total[k].add(r);

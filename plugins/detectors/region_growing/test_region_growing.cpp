@@ -1,5 +1,6 @@
 // Tests of detectors.region_growing (Liu et al. 2024, section 2.1) and the shared plane-fit/CPI code.
 #include "common/accuracy.h"
+#include "common/normals.h"
 #include "common/planarity.h"
 #include "common/test_meshes.h"
 #include "texdefrag/io/obj.h"
@@ -8,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <set>
@@ -89,6 +91,82 @@ TEST(DetectorsPlanarity, FitOfRectangleHasExactEigenvaluesAndOrientedNormal) {
   EXPECT_NEAR(fit_plane(flipped).normal.z(), -1.0, 1e-12);
   EXPECT_NEAR(normal_angle(Vec3::UnitZ(), -Vec3::UnitZ()), M_PI, 1e-12);
   EXPECT_FALSE(fit_plane(PlaneMoments{}).valid);
+}
+
+TEST(DetectorsPlanarity, PlaneRmsDistanceFromMoments) {
+  // Unit square in z = 0: distance to z = 0.5 is 0.5 everywhere; to the plane x = 0 the RMS of x
+  // over [0, 1] is sqrt(1/3).
+  PlaneMoments m;
+  m.add_triangle(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0));
+  m.add_triangle(Vec3(0, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0));
+  EXPECT_NEAR(plane_rms_distance(m, Vec3(3, -2, 0.5), Vec3::UnitZ()), 0.5, 1e-12);
+  EXPECT_NEAR(plane_rms_distance(m, Vec3(0, 0, 0), Vec3::UnitZ()), 0.0, 1e-9);
+  EXPECT_NEAR(plane_rms_distance(m, Vec3(0, 5, 7), Vec3::UnitX()), std::sqrt(1.0 / 3), 1e-12);
+  EXPECT_EQ(plane_rms_distance(PlaneMoments{}, Vec3::Zero(), Vec3::UnitZ()), 0.0);
+}
+
+TEST(DetectorsNormals, BilateralFilterSmoothsNoiseAndKeepsACrease) {
+  // A noisy wall (y = 0, normal -y) and roof (z = 8, normal +z) meeting at a right angle.
+  const tmesh::Case c = tmesh::jagged_case();
+  const Topology topo = build_topology(c.mesh);
+  const std::vector<Vec3> raw = filter_face_normals(c.mesh, topo, 0, M_PI / 6);
+  const std::vector<Vec3> smooth = filter_face_normals(c.mesh, topo, 5, M_PI / 6);
+  ASSERT_EQ(smooth.size(), c.mesh.faces.size());
+  double err_raw = 0, err_smooth = 0, worst = 0;
+  for (size_t f = 0; f < raw.size(); ++f) {
+    const Vec3 truth = c.truth[f] == 0 ? Vec3(0, -1, 0) : Vec3(0, 0, 1);
+    EXPECT_NEAR(smooth[f].norm(), 1.0, 1e-12);
+    EXPECT_NEAR(raw[f].dot(face_normal(c.mesh, f)), 1.0, 1e-12);  // 0 passes = the raw normals
+    err_raw += normal_angle(raw[f], truth);
+    err_smooth += normal_angle(smooth[f], truth);
+    worst = std::max(worst, normal_angle(smooth[f], truth));
+  }
+  EXPECT_LT(err_smooth, 0.5 * err_raw);  // noise averaged out...
+  EXPECT_LT(worst, 30 * M_PI / 180);     // ...and no face next to the crease is pulled to 45 degrees
+  EXPECT_GT(mean_edge_length(c.mesh, topo), 0.9);
+  EXPECT_LT(mean_edge_length(c.mesh, topo), 1.4);  // 1 m quads: sides 1, diagonals 1.41
+}
+
+TEST(DetectorsRegionGrowing, JaggedRefinementJoinsTheFittingPlaneNotTheLargerOne) {
+  // A wall (12 x 8 quads) and a roof (12 x 4 quads) at a right angle, every chart 2 x 2 quads
+  // (8 faces). Growth is switched off (all CPI weights 0: no unit passes), so the jagged refinement
+  // alone groups the charts. Regions join the neighbour whose plane they fit, so roof charts on the
+  // crease go to the roof although the wall has more faces, and the last wall and roof groups fit
+  // nothing and stay apart. The paper's size-only rule (any angle, any distance) merges the two.
+  tmesh::Builder b;
+  const int next = b.add_grid(Vec3(0, 0, 0), Vec3(12, 0, 0), Vec3(0, 0, 8), 12, 8, 2, 2, 0, 0);
+  b.add_grid(Vec3(0, 0, 8), Vec3(12, 0, 0), Vec3(0, 4, 0), 12, 4, 2, 2, next, 1);
+  const tmesh::Case c = b.build("wall_roof_charts");
+  const json only_jagged = {{"w_flatness", 0}, {"w_compactness", 0}, {"w_normal", 0}, {"curved_components", false},
+                            {"elongated_strips", false}, {"min_region_faces", 100000}};
+  json rep;
+  const auto plane = score(c, kRG, only_jagged, &rep);
+  EXPECT_EQ(rep["grown_regions"], 36);  // 24 wall + 12 roof charts, none joined by growth
+  EXPECT_EQ(plane.regions, 2);
+  EXPECT_DOUBLE_EQ(plane.accuracy, 1.0);
+  EXPECT_EQ(rep["jagged_small_regions_kept"], 2);  // the final wall and roof groups
+  json size_only = only_jagged;
+  size_only["angle_threshold_deg"] = 90;
+  size_only["max_plane_distance"] = 1000;
+  const auto by_size = score(c, kRG, size_only);
+  EXPECT_EQ(by_size.regions, 1);
+  EXPECT_EQ(by_size.under_segmented, 1);
+}
+
+TEST(DetectorsRegionGrowing, SmallRoofPieceOnAWallStaysAloneUnlessTiny) {
+  // A wall of 2x2-quad charts with a 1-quad-deep canopy (2 x 1 quads = 4 faces, one chart) sticking
+  // out at a right angle: the canopy fits no neighbour's plane and stays its own region; with
+  // tiny_region_faces >= 4 it joins the wall (the size-only rule for very small regions).
+  tmesh::Builder b;
+  const int next = b.add_grid(Vec3(0, 0, 0), Vec3(8, 0, 0), Vec3(0, 0, 6), 8, 6, 2, 2, 0, 0);
+  b.add_grid(Vec3(3, -1, 4), Vec3(2, 0, 0), Vec3(0, 1, 0), 2, 1, 2, 1, next, 1);
+  const tmesh::Case c = b.build("canopy");
+  json rep;
+  const auto kept = score(c, kRG, json::object(), &rep);
+  EXPECT_EQ(kept.regions, 2);
+  EXPECT_DOUBLE_EQ(kept.accuracy, 1.0);
+  const auto tiny = score(c, kRG, {{"tiny_region_faces", 4}});
+  EXPECT_EQ(tiny.regions, 1);
 }
 
 TEST(DetectorsRegionGrowing, DeclaresOptionsAndRejectsOutOfRange) {
