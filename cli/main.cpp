@@ -75,6 +75,27 @@ void print_describe(const StageInfo& info, const std::string& source) {
   }
 }
 
+/// Runs a sub-command body and maps what it throws to the exit code contract: configuration and
+/// plugin errors 2, anything else (bad input data, stage errors, cancellation) 1.
+template <class F>
+int guarded(F&& body) {
+  try {
+    return body();
+  } catch (const ConfigError& e) {
+    std::cerr << "configuration error:\n" << e.what() << "\n";
+    return 2;
+  } catch (const RegistryError& e) {
+    std::cerr << "plugin error: " << e.what() << "\n";
+    return 2;
+  } catch (const Cancelled&) {
+    std::cerr << "cancelled\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -95,12 +116,11 @@ int main(int argc, char** argv) {
   run->add_flag("--no-write", no_write, "Run the stages and report, write nothing");
   run->add_flag("--report", print_report, "Print the run report JSON on standard output");
   run->callback([&] {
-    try {
+    exit_code = guarded([&] {
       const PipelineConfig cfg = load_config(config_path, sets);
       if (output_dir.empty() && !no_write) {
         std::cerr << "texdefrag run: -o OUTDIR is required (or --no-write)\n";
-        exit_code = 2;
-        return;
+        return 2;
       }
       RunOptions ro;
       ro.input = input;
@@ -118,20 +138,8 @@ int main(int argc, char** argv) {
                      cin > 0 ? 100.0 * (cout_ - cin) / cin : 0.0, in["megapixels"].get<double>(),
                      out["megapixels"].get<double>(), report["total_time_s"].get<double>());
       }
-      exit_code = 0;
-    } catch (const ConfigError& e) {
-      std::cerr << "configuration error:\n" << e.what() << "\n";
-      exit_code = 2;
-    } catch (const RegistryError& e) {
-      std::cerr << "plugin error: " << e.what() << "\n";
-      exit_code = 2;
-    } catch (const Cancelled&) {
-      std::cerr << "cancelled\n";
-      exit_code = 1;
-    } catch (const std::exception& e) {
-      std::cerr << "error: " << e.what() << "\n";
-      exit_code = 1;
-    }
+      return 0;
+    });
   });
 
   // validate
@@ -139,17 +147,11 @@ int main(int argc, char** argv) {
   validate->add_option("--config,-c", config_path, "Pipeline configuration (JSON)")->required();
   validate->add_option("--set", sets, "Override an option (as in run)");
   validate->callback([&] {
-    try {
+    exit_code = guarded([&] {
       load_config(config_path, sets);
       std::cout << config_path << ": ok\n";
-      exit_code = 0;
-    } catch (const ConfigError& e) {
-      std::cerr << "configuration error:\n" << e.what() << "\n";
-      exit_code = 2;
-    } catch (const RegistryError& e) {
-      std::cerr << "plugin error: " << e.what() << "\n";
-      exit_code = 2;
-    }
+      return 0;
+    });
   });
 
   // plugins
@@ -159,7 +161,7 @@ int main(int argc, char** argv) {
   plugins->add_option("--describe", describe, "Stage to describe (e.g. packers.shelf)");
   plugins->add_flag("--json", as_json, "JSON output");
   plugins->callback([&] {
-    try {
+    exit_code = guarded([&] {
       Registry& reg = Registry::instance();
       reg.load_plugins();
       std::vector<std::pair<const StageInfo*, std::string>> all;
@@ -171,8 +173,7 @@ int main(int argc, char** argv) {
           if (info->name == describe) {
             if (as_json) std::cout << describe_json(*info, src).dump(2) << "\n";
             else print_describe(*info, src);
-            exit_code = 0;
-            return;
+            return 0;
           }
         std::vector<std::string> names;
         for (const auto& p : all) names.push_back(p.first->name);
@@ -180,8 +181,7 @@ int main(int argc, char** argv) {
         const std::string near = nearest(describe, names);
         if (!near.empty()) std::cerr << " (did you mean '" << near << "'?)";
         std::cerr << "\n";
-        exit_code = 2;
-        return;
+        return 2;
       }
       if (as_json) {
         json arr = json::array();
@@ -190,11 +190,8 @@ int main(int argc, char** argv) {
       } else {
         for (const auto& [info, src] : all) std::printf("%-28s %s\n", info->name.c_str(), info->description.c_str());
       }
-      exit_code = 0;
-    } catch (const RegistryError& e) {
-      std::cerr << "plugin error: " << e.what() << "\n";
-      exit_code = 2;
-    }
+      return 0;
+    });
   });
 
 #ifdef TEXDEFRAG_HAVE_EVAL
