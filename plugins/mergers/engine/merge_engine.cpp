@@ -37,6 +37,21 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
           .range(1, 1000),
       opt_int("max_free_vertices", 2000, "Largest free region of one merge (nearest wedges to the seam first)")
           .range(1, 10000000),
+      opt_enum("second_pass", "none", {"none", "across_regions"},
+               "After the region-constrained queue is empty: 'none' stops (Liu et al.); 'across_regions' queues every "
+               "adjacent chart pair, regions ignored, and merges on with the remaining global distortion budget"),
+      opt_enum("second_pass_priority", "mmethod", {"planarity", "mmethod"},
+               "Merge order of the second pass (see 'priority')"),
+      opt_double("second_pass_local_bound", 0.5,
+                 "local_bound during the second pass (area-weighted ARAP error of the free region)")
+          .range(0, 1e6),
+      opt_bool("second_pass_seam_refusal", true,
+               "Under the 'mmethod' order in the second pass, refuse seams shorter than 0.2 of both charts' borders "
+               "(the M-method's rule); false tries them too"),
+      opt_int("second_pass_steps", 1,
+              "The second pass runs this many times with local bounds second_pass_local_bound / 2^(steps-1), ..., / 2, "
+              "x 1 (cheap merges first); attempts are reset between steps")
+          .range(1, 20),
       opt_bool("cross_page", true,
                "Merge charts whose texels lie on different input pages (each face keeps its own page's texels as "
                "rest shape); false keeps every chart on one input page"),
@@ -53,6 +68,11 @@ MergeOptions merge_options_from(const Options& o) {
   m.max_attempts = static_cast<int>(o.get_int("max_attempts"));
   m.max_free_vertices = static_cast<int>(o.get_int("max_free_vertices"));
   m.cross_page = o.get_bool("cross_page");
+  m.second_pass = o.get_string("second_pass") == "across_regions" ? SecondPass::AcrossRegions : SecondPass::None;
+  m.second_pass_priority = o.get_string("second_pass_priority") == "planarity" ? Priority::Planarity : Priority::MMethod;
+  m.second_pass_local_bound = o.get_double("second_pass_local_bound");
+  m.second_pass_seam_refusal = o.get_bool("second_pass_seam_refusal");
+  m.second_pass_steps = static_cast<int>(o.get_int("second_pass_steps"));
   return m;
 }
 
@@ -65,6 +85,9 @@ json MergeReport::to_json() const {
   j["candidate_pairs"] = candidates_initial;
   j["merges_attempted"] = attempted;
   j["merges_accepted"] = accepted;
+  j["charts_after_first_pass"] = charts_after_first_pass;
+  j["merges_accepted_second_pass"] = accepted_second_pass;
+  j["distortion_after_first_pass"] = distortion_after_first_pass;
   json rej = json::object();
   size_t total = 0;
   for (const auto& [k, v] : rejected) {
@@ -168,7 +191,10 @@ class Engine {
   const Topology& topo_;
   Atlas& at_;
   const std::vector<int>& region_;
-  MergeOptions opt_;
+  MergeOptions opt_;   ///< priority and local_bound switch to the second pass's values when it starts
+  bool across_ = false;  ///< second pass: regions are ignored
+  void drain(const Progress& progress, double base, double span);
+  void start_second_pass(double local_bound);
   LocalSolver& solver_;
   MergeReport rep_;
 
@@ -414,8 +440,7 @@ bool Engine::candidate(int a, int b) const {
   const ChartInfo& A = charts_[static_cast<size_t>(a)];
   const ChartInfo& B = charts_[static_cast<size_t>(b)];
   return a != b && A.alive && B.alive && !A.locked && !B.locked && (opt_.cross_page || A.page == B.page) &&
-         A.region >= 0 &&
-         A.region == B.region;
+         (across_ || (A.region >= 0 && A.region == B.region));
 }
 
 void Engine::pair_points(int big, int small, std::vector<std::pair<int, int>>& pairs) {
@@ -466,7 +491,7 @@ double Engine::score(int a, int b, int& refusal) {
   const double ra = la > 0 ? A.border / la : 1e30, rb = lb > 0 ? B.border / lb : 1e30;
   const double cost = err * std::min(ra, rb) * std::min(A.uv_area, B.uv_area) * pair_state(a, b).penalty;
   const double mean_seam = nedges ? 0.5 * (la + lb) / static_cast<double>(nedges) : 0;
-  if (la < 0.2 * A.border && lb < 0.2 * B.border)
+  if (la < 0.2 * A.border && lb < 0.2 * B.border && !(across_ && !opt_.second_pass_seam_refusal))
     refusal = 1;
   else if (err > 2 * mean_seam)
     refusal = 2;
@@ -865,12 +890,62 @@ MergeReport Engine::run(const Progress& progress) {
       }
   refreshed_area_.resize(charts_.size());
   for (size_t c = 0; c < charts_.size(); ++c) refreshed_area_[c] = charts_[c].uv_area;
+  const bool second = opt_.second_pass == SecondPass::AcrossRegions;
+  drain(progress, 0, second ? 0.6 : 1.0);
+  rep_.charts_after_first_pass = 0;
+  for (const ChartInfo& ch : charts_) rep_.charts_after_first_pass += ch.alive && !ch.faces.empty();
+  rep_.distortion_after_first_pass = weight_sum_ > 0 ? err_sum_ / weight_sum_ : 0;
+  if (second) {
+    const size_t before = rep_.accepted;
+    const int steps = std::max(1, opt_.second_pass_steps);
+    for (int i = 0; i < steps; ++i) {
+      start_second_pass(opt_.second_pass_local_bound / std::pow(2.0, steps - 1 - i));
+      drain(progress, 0.6 + 0.4 * i / steps, 0.4 / steps);
+    }
+    rep_.accepted_second_pass = rep_.accepted - before;
+  }
+  if (progress) progress(1.0);
+  rep_.mean_free_vertices = free_count_ ? free_total_ / static_cast<double>(free_count_) : 0;
+  rep_.charts_out = static_cast<size_t>(at_.compact());
+  const DistortionSummary ds = atlas_distortion(mesh_, at_);
+  rep_.distortion_out = ds.arap;
+  rep_.flipped_out = ds.flipped;
+  return rep_;
+}
+
+void Engine::start_second_pass(double local_bound) {
+  // Regions are ignored from now on; the order and the per-merge bound switch to the second pass's.
+  const bool first_step = !across_;
+  across_ = true;
+  opt_.priority = opt_.second_pass_priority;
+  opt_.local_bound = local_bound;
+  // The M-method's cost needs every chart's current border length (kept only under that order).
+  for (ChartInfo& ch : charts_) {
+    if (!ch.alive) continue;
+    ch.border = 0;
+    for (const auto& [f, k] : ch.boundary) ch.border += edge_uv_len(f, k);
+  }
+  // Every adjacent pair is queued again under the new order (pairs that used up max_attempts stay out).
+  for (auto& [key, ps] : pairs_) {
+    ps.va = ps.vb = -1;
+    if (!first_step) ps.attempts = 0;  // a later step has a looser local bound: try again
+  }
+  for (int c = 0; c < static_cast<int>(charts_.size()); ++c) {
+    if (!C(c).alive) continue;
+    std::vector<int> nb;
+    for (const auto& [n, edges] : C(c).adj)
+      if (c < n) nb.push_back(n);
+    for (int n : nb) push_pair(c, n);
+  }
+}
+
+void Engine::drain(const Progress& progress, double base, double span) {
   size_t popped = 0;
   while (!queue_.empty() && static_cast<long long>(rep_.accepted) < opt_.max_merges) {
     const Entry e = queue_.top();
     queue_.pop();
     if ((++popped & 255) == 0 && progress)
-      progress(static_cast<double>(popped) / static_cast<double>(popped + queue_.size()));
+      progress(base + span * static_cast<double>(popped) / static_cast<double>(popped + queue_.size()));
     if (!C(e.a).alive || !C(e.b).alive) continue;
     if (C(e.a).version != e.va || C(e.b).version != e.vb) {
       // note: lazy refresh: a stale entry is re-scored and queued again (once per version pair).
@@ -910,13 +985,6 @@ MergeReport Engine::run(const Progress& progress) {
       ps.penalty *= 2;  // the M-method's penalty (used by its cost only)
     }
   }
-  if (progress) progress(1.0);
-  rep_.mean_free_vertices = free_count_ ? free_total_ / static_cast<double>(free_count_) : 0;
-  rep_.charts_out = static_cast<size_t>(at_.compact());
-  const DistortionSummary ds = atlas_distortion(mesh_, at_);
-  rep_.distortion_out = ds.arap;
-  rep_.flipped_out = ds.flipped;
-  return rep_;
 }
 
 }  // namespace

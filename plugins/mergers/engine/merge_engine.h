@@ -34,6 +34,12 @@ enum class Priority {
   MMethod,    ///< Maggiordomo et al.: smallest err * min(B/L) * min(area) * penalty first, with refusals
 };
 
+/// What happens after the region-constrained queue is empty.
+enum class SecondPass {
+  None,           ///< stop (the paper's behaviour)
+  AcrossRegions,  ///< queue every adjacent chart pair, regions ignored, and merge on with the remaining budget
+};
+
 struct MergeOptions {
   Priority priority = Priority::Planarity;  ///< merge order
   double alpha = 5;             ///< free-region radius as a multiple of the largest weld displacement
@@ -44,6 +50,11 @@ struct MergeOptions {
   int max_free_vertices = 2000; ///< cap on the free region (nearest wedges first)
   bool cross_page = true;       ///< allow merging charts whose texels lie on different input pages
   PlanarityWeights weights;     ///< planarity index weights
+  SecondPass second_pass = SecondPass::None;          ///< merging across regions after the first queue
+  Priority second_pass_priority = Priority::MMethod;  ///< order of the second pass
+  double second_pass_local_bound = 0.5;  ///< local_bound during the (last step of the) second pass
+  bool second_pass_seam_refusal = true;  ///< keep the M-method's seam_too_short refusal in the second pass
+  int second_pass_steps = 1;  ///< second-pass steps, local bounds second_pass_local_bound / 2^(steps-1) ... x 1
 };
 
 /// The option declarations shared by every merger built on the engine (name, default, range, help).
@@ -60,6 +71,9 @@ struct MergeReport {
   size_t self_overlapping_charts = 0; ///< input charts whose own triangles overlap (checked by triangles)
   size_t candidates_initial = 0;      ///< candidate chart pairs at the start
   size_t attempted = 0, accepted = 0;
+  size_t charts_after_first_pass = 0;  ///< live charts when the region-constrained queue emptied
+  size_t accepted_second_pass = 0;     ///< merges accepted by the cross-region pass
+  double distortion_after_first_pass = 0;  ///< global ARAP distortion at that moment (incremental)
   std::map<std::string, size_t> rejected;  ///< by reason
   double distortion_in = 0;           ///< global ARAP distortion of the atlas given to the engine
   double distortion_out = 0;          ///< after merging (recomputed from scratch)

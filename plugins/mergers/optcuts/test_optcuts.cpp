@@ -163,6 +163,62 @@ TEST(OptCuts, OneRegionMergesTheFoldedGridToo) {
   test::expect_valid_atlas(run);
 }
 
+/// fragmented_grid_mesh(8, 4) left flat, region 0 for faces with x < 4, region 1 for the others: two
+/// regions on one plane, so every merge is free of distortion and only the regions separate them.
+TexturedMesh flat_two_region_grid(std::vector<int>& region) {
+  TexturedMesh m = texdefrag::testing::fragmented_grid_mesh(8, 4, 1024, "unused.png");
+  region.assign(m.faces.size(), 0);
+  for (size_t f = 0; f < m.faces.size(); ++f) {
+    double cx = 0;
+    for (int k = 0; k < 3; ++k) cx += m.corner_position(f, k).x() / 3;
+    region[f] = cx < 4 ? 0 : 1;
+  }
+  return m;
+}
+
+TEST(OptCuts, FlatGridTwoRegionsStaysTwoChartsWithoutSecondPass) {
+  std::vector<int> region;
+  TexturedMesh m = flat_two_region_grid(region);
+  test::Run run(std::move(m), region);
+  run.merge("mergers.optcuts");
+  EXPECT_EQ(run.ctx.atlas.num_charts, 2);
+  EXPECT_EQ(run.report["charts_after_first_pass"], 2);
+  EXPECT_EQ(run.report["merges_accepted_second_pass"], 0);
+  test::expect_valid_atlas(run);
+}
+
+TEST(OptCuts, SecondPassMergesAcrossRegions) {
+  for (const char* order : {"mmethod", "planarity"}) {
+    SCOPED_TRACE(order);
+    std::vector<int> region;
+    TexturedMesh m = flat_two_region_grid(region);
+    test::Run run(std::move(m), region);
+    run.merge("mergers.optcuts", {{"second_pass", "across_regions"}, {"second_pass_priority", order}});
+    // First pass: one chart per region; second pass: the two halves meet along the flat seam.
+    EXPECT_EQ(run.report["charts_after_first_pass"], 2);
+    EXPECT_EQ(run.report["merges_accepted_second_pass"], 1);
+    EXPECT_EQ(run.ctx.atlas.num_charts, 1);
+    EXPECT_EQ(run.report["merges_accepted"], 63);  // 64 input charts
+    EXPECT_LT(run.report["distortion_out"].get<double>(), 1e-10);
+    test::expect_valid_atlas(run);
+  }
+}
+
+TEST(OptCuts, SecondPassKeepsTheGlobalBound) {
+  // A distorted grid in two regions: the second pass merges across them only within the budget.
+  for (double bound : {1e-9, 0.025}) {
+    std::vector<int> region;
+    TexturedMesh m = test::distorted_fragmented_grid(8, 4, 0.05);
+    region.assign(m.faces.size(), 0);
+    for (size_t f = 0; f < m.faces.size(); ++f) region[f] = m.corner_position(f, 0).x() < 4 ? 0 : 1;
+    test::Run run(std::move(m), region);
+    run.merge("mergers.optcuts", {{"second_pass", "across_regions"}, {"global_bound", bound}});
+    EXPECT_LE(run.report["distortion_out"].get<double>(), bound + 1e-12);
+    if (bound < 1e-6) EXPECT_EQ(run.report["merges_accepted"], 0);
+    test::expect_valid_atlas(run);
+  }
+}
+
 TEST(OptCuts, ForcedRejectionRollsBackExactly) {
   test::Run run(test::distorted_fragmented_grid(6, 4, 0.1));
   const Atlas before = run.ctx.atlas;
@@ -242,10 +298,12 @@ TEST(OptCuts, OptionsAreDeclared) {
   std::set<std::string> keys;
   for (const OptionSpec& o : info->options) keys.insert(o.key);
   for (const char* k : {"priority", "alpha", "global_bound", "local_bound", "max_merges", "max_attempts",
-                        "max_free_vertices", "cross_page", "newton_iterations", "newton_tolerance"})
+                        "max_free_vertices", "cross_page", "second_pass", "second_pass_priority",
+                        "second_pass_local_bound", "newton_iterations", "newton_tolerance"})
     EXPECT_TRUE(keys.count(k)) << k;
   EXPECT_THROW(default_options(*info, {{"global_bound", -1}}), std::invalid_argument);
   EXPECT_THROW(default_options(*info, {{"priority", "fastest"}}), std::invalid_argument);
+  EXPECT_THROW(default_options(*info, {{"second_pass", "everywhere"}}), std::invalid_argument);
 }
 
 }  // namespace
