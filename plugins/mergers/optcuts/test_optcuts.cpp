@@ -214,7 +214,9 @@ TEST(OptCuts, SecondPassKeepsTheGlobalBound) {
     test::Run run(std::move(m), region);
     run.merge("mergers.optcuts", {{"second_pass", "across_regions"}, {"global_bound", bound}});
     EXPECT_LE(run.report["distortion_out"].get<double>(), bound + 1e-12);
-    if (bound < 1e-6) EXPECT_EQ(run.report["merges_accepted"], 0);
+    if (bound < 1e-6) {
+      EXPECT_EQ(run.report["merges_accepted"], 0);
+    }
     test::expect_valid_atlas(run);
   }
 }
