@@ -69,6 +69,10 @@ TEST(Registry, RejectsMalformedNamesWrongKindAndDuplicates) {
   Registry r;
   EXPECT_THROW(r.add(dummy_info("Detectors.X"), "a.so"), RegistryError);
   EXPECT_THROW(r.add(dummy_info("detectors"), "a.so"), RegistryError);
+  EXPECT_THROW(r.add(dummy_info("detectors."), "a.so"), RegistryError);
+  EXPECT_THROW(r.add(dummy_info("detectors.9lives"), "a.so"), RegistryError);
+  EXPECT_THROW(r.add(dummy_info("detectors.a-b"), "a.so"), RegistryError);
+  EXPECT_THROW(r.add(dummy_info("writers.x"), "a.so"), RegistryError);
   StageInfo wrong = dummy_info("mergers.x");  // declared as a detector
   EXPECT_THROW(r.add(wrong, "a.so"), RegistryError);
   StageInfo bad_default = dummy_info("detectors.bad");

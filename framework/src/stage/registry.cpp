@@ -7,11 +7,24 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
-#include <regex>
 
 namespace fs = std::filesystem;
 
 namespace texdefrag {
+
+namespace {
+/// `detectors|mergers|packers` '.' [a-z][a-z0-9_]*
+bool well_formed_name(const std::string& name) {
+  const size_t dot = name.find('.');
+  if (dot == std::string::npos) return false;
+  const std::string kind = name.substr(0, dot), rest = name.substr(dot + 1);
+  if (kind != "detectors" && kind != "mergers" && kind != "packers") return false;
+  if (rest.empty() || !(rest[0] >= 'a' && rest[0] <= 'z')) return false;
+  for (char c : rest)
+    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
+  return true;
+}
+}  // namespace
 
 Registry& Registry::instance() {
   static Registry r;
@@ -19,9 +32,8 @@ Registry& Registry::instance() {
 }
 
 void Registry::add(StageInfo info, const std::string& source) {
-  static const std::regex kName("^(detectors|mergers|packers)\\.[a-z][a-z0-9_]*$");
   const std::string from = source.empty() ? (current_module_.empty() ? "<built in>" : current_module_) : source;
-  if (!std::regex_match(info.name, kName))
+  if (!well_formed_name(info.name))
     throw RegistryError("stage name '" + info.name + "' from " + from +
                         " is malformed (expected detectors|mergers|packers.lower_snake_case)");
   const std::string prefix = info.name.substr(0, info.name.find('.'));
