@@ -104,21 +104,40 @@ bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>&
 }
 
 namespace {
-bool strictly_inside(const Vector2d& q, const std::array<Vector2d, 3>& t) {
+/// q strictly inside t, by more than `eps` in orient2d units (twice an area).
+bool strictly_inside(const Vector2d& q, const std::array<Vector2d, 3>& t, double eps) {
   const double s0 = orient2d(t[0], t[1], q), s1 = orient2d(t[1], t[2], q), s2 = orient2d(t[2], t[0], q);
-  return (s0 > 0 && s1 > 0 && s2 > 0) || (s0 < 0 && s1 < 0 && s2 < 0);
+  return (s0 > eps && s1 > eps && s2 > eps) || (s0 < -eps && s1 < -eps && s2 < -eps);
+}
+/// Proper crossing of [a, b] and [c, d] with every orientation beyond `eps`.
+bool segments_cross_eps(const Vector2d& a, const Vector2d& b, const Vector2d& c, const Vector2d& d, double eps) {
+  const double o1 = orient2d(a, b, c), o2 = orient2d(a, b, d);
+  const double o3 = orient2d(c, d, a), o4 = orient2d(c, d, b);
+  return ((o1 > eps && o2 < -eps) || (o1 < -eps && o2 > eps)) && ((o3 > eps && o4 < -eps) || (o3 < -eps && o4 > eps));
 }
 }  // namespace
 
 bool triangles_overlap(const Tri2& a, const Tri2& b) {
+  // note: corners within kTouch of the longest edge count as shared, and orientations within kTouch *
+  // (longest edge)^2 as zero: after the weld and rigid motions, faces of one chart that touch along an
+  // unwelded edge or at a vertex (a chart touching itself) differ by rounding only, and the exact
+  // predicates would report such contacts as overlaps (the folded-grid tests did).
+  double l2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    l2 = std::max(l2, (a.p[static_cast<size_t>(k)] - a.p[static_cast<size_t>((k + 1) % 3)]).squaredNorm());
+    l2 = std::max(l2, (b.p[static_cast<size_t>(k)] - b.p[static_cast<size_t>((k + 1) % 3)]).squaredNorm());
+  }
+  const double tol2 = kTouch * kTouch * l2, eps = kTouch * l2;
   int shared = 0, sa[3] = {0, 0, 0}, sb[3] = {0, 0, 0};
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
-      if (a.w[static_cast<size_t>(i)] == b.w[static_cast<size_t>(j)]) {
+      if (!sa[i] && !sb[j] &&
+          (a.w[static_cast<size_t>(i)] == b.w[static_cast<size_t>(j)] ||
+           (a.p[static_cast<size_t>(i)] - b.p[static_cast<size_t>(j)]).squaredNorm() <= tol2)) {
         ++shared;
         sa[i] = sb[j] = 1;
       }
-  if (shared >= 3) return true;  // the same wedges twice: a duplicated triangle
+  if (shared >= 3) return true;  // the same corners twice: a duplicated triangle
   if (shared == 2) {
     int i = 0, j = 0;
     while (sa[i]) ++i;
@@ -128,17 +147,17 @@ bool triangles_overlap(const Tri2& a, const Tri2& b) {
       if (sa[k]) (e0 < 0 ? e0 : e1) = k;
     const double o1 = orient2d(a.p[static_cast<size_t>(e0)], a.p[static_cast<size_t>(e1)], a.p[static_cast<size_t>(i)]);
     const double o2 = orient2d(a.p[static_cast<size_t>(e0)], a.p[static_cast<size_t>(e1)], b.p[static_cast<size_t>(j)]);
-    return o1 * o2 > 0;
+    return (o1 > eps && o2 > eps) || (o1 < -eps && o2 < -eps);
   }
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
-      if (segments_cross(a.p[static_cast<size_t>(i)], a.p[static_cast<size_t>((i + 1) % 3)], b.p[static_cast<size_t>(j)],
-                         b.p[static_cast<size_t>((j + 1) % 3)]))
+      if (segments_cross_eps(a.p[static_cast<size_t>(i)], a.p[static_cast<size_t>((i + 1) % 3)],
+                             b.p[static_cast<size_t>(j)], b.p[static_cast<size_t>((j + 1) % 3)], eps))
         return true;
   for (int i = 0; i < 3; ++i)
-    if (!sa[i] && strictly_inside(a.p[static_cast<size_t>(i)], b.p)) return true;
+    if (!sa[i] && strictly_inside(a.p[static_cast<size_t>(i)], b.p, eps)) return true;
   for (int j = 0; j < 3; ++j)
-    if (!sb[j] && strictly_inside(b.p[static_cast<size_t>(j)], a.p)) return true;
+    if (!sb[j] && strictly_inside(b.p[static_cast<size_t>(j)], a.p, eps)) return true;
   return false;
 }
 

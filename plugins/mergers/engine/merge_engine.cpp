@@ -820,14 +820,44 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
     return false;
   }
 
-  if (Bg.self_overlap || Sm.self_overlap) {
-    // A multi-sheeted chart: test the moved triangles against all triangles of the merged chart.
-    // note: conservative: an input overlap among the moved triangles also rejects the merge.
+  // Triangles: every moved or changed triangle against every other triangle of the merged chart.
+  // The boundary and fan tests above miss overlaps that neither cross a boundary nor wrap a fan seen
+  // by this merge: another sheet of a multi-sheeted input chart, or a chart whose fan the earlier
+  // merges closed around a wedge with input angles far above 2 pi (t078_L15: a 1-face chart welded
+  // onto a 4 pi double cover). Pairs of unchanged triangles keep their relative positions (the
+  // bigger chart's stay put, the smaller chart's move rigidly together), so testing every pair with
+  // a moved triangle means no merge adds an overlapping pair.
+  // note: conservative: an input overlap among the moved triangles also rejects the merge.
+  {
     std::vector<Tri2> mt, rest;
+    Vec2 lo(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()), hi = -lo;
+    auto grow = [&](const Tri2& t) {
+      for (const Vec2& q : t.p) {
+        lo = lo.cwiseMin(q);
+        hi = hi.cwiseMax(q);
+      }
+    };
     for (int f : Sm.faces)
-      if (rest_w_[static_cast<size_t>(f)] > 0) mt.push_back(tri2(f));
+      if (rest_w_[static_cast<size_t>(f)] > 0) {
+        mt.push_back(tri2(f));
+        grow(mt.back());
+      }
     for (int f : Bg.faces)
-      if (rest_w_[static_cast<size_t>(f)] > 0) (fchanged_[static_cast<size_t>(f)] == epoch_ ? mt : rest).push_back(tri2(f));
+      if (rest_w_[static_cast<size_t>(f)] > 0 && fchanged_[static_cast<size_t>(f)] == epoch_) {
+        mt.push_back(tri2(f));
+        grow(mt.back());
+      }
+    for (int f : Bg.faces) {
+      if (rest_w_[static_cast<size_t>(f)] == 0 || fchanged_[static_cast<size_t>(f)] == epoch_) continue;
+      // Only triangles whose box meets the moved triangles' box can overlap them.
+      const Vec2& a = uv(wedge(f, 0));
+      const Vec2& b = uv(wedge(f, 1));
+      const Vec2& c = uv(wedge(f, 2));
+      if (std::max({a.x(), b.x(), c.x()}) < lo.x() || std::min({a.x(), b.x(), c.x()}) > hi.x() ||
+          std::max({a.y(), b.y(), c.y()}) < lo.y() || std::min({a.y(), b.y(), c.y()}) > hi.y())
+        continue;
+      rest.push_back(tri2(f));
+    }
     if (any_triangle_overlap(mt, rest)) {
       reason = "overlap";
       rollback();
