@@ -9,7 +9,9 @@
 // split by normal clustering; seeds in decreasing area; a neighbour unit joins when its normal is
 // within the angle threshold of the region's refitted plane normal and its CPI passes; restart while
 // units remain. Then: elongated strips are dissolved into their neighbours, small smoothly curved
-// pieces are grouped into one component, tiny regions join the neighbouring region with more faces.
+// pieces are grouped into one component, small regions join the neighbouring region whose plane they
+// fit (tiny ones the one with more faces), and small regions or clusters enclosed by one region join
+// it whatever their angle (our addition, docs/detectors.md refinement 9).
 #include "common/normals.h"
 #include "common/planarity.h"
 #include "common/region_output.h"
@@ -46,6 +48,9 @@ struct Params {
   int fit_min_faces = 8;
   double max_plane_distance = 1.0;  // mean edge lengths
   int tiny_region_faces = 3;
+  bool enclosed = true;
+  double enclosed_max_fraction = 0.1;
+  double enclosed_border_fraction = 0.9;
   double edge = 0;                  // mean edge length of the model (set in detect)
 };
 
@@ -71,6 +76,9 @@ Params read_params(const Options& o) {
   p.fit_min_faces = static_cast<int>(o.get_int("fit_min_faces"));
   p.max_plane_distance = o.get_double("max_plane_distance");
   p.tiny_region_faces = static_cast<int>(o.get_int("tiny_region_faces"));
+  p.enclosed = o.get_bool("absorb_enclosed");
+  p.enclosed_max_fraction = o.get_double("enclosed_max_fraction");
+  p.enclosed_border_fraction = o.get_double("enclosed_border_fraction");
   return p;
 }
 
@@ -163,7 +171,33 @@ std::vector<int> make_units(const StageContext& ctx, const Params& p, const std:
 struct Units {
   UnitGraph g;
   std::vector<Vec3> smooth;  ///< per unit: sum of area * filtered face normal
+  std::vector<double> open;  ///< per unit: 3D length of its edges with no textured face of another unit
 };
+
+/// Per unit, the 3D length of the edges where it has no textured neighbour face (mesh boundary,
+/// tile cracks, untextured faces): border that belongs to no region.
+std::vector<double> open_border_lengths(const TexturedMesh& mesh, const Topology& topo, const UnitGraph& g) {
+  std::vector<double> open(static_cast<size_t>(g.num_units), 0.0);
+  for (const Edge& e : topo.edges) {
+    int unit = -1;
+    bool other = false;
+    for (int i = 0; i < e.num_faces; ++i) {
+      const int u = g.face_unit[static_cast<size_t>(topo.edge_faces[static_cast<size_t>(e.first_incidence + i)].face)];
+      if (u < 0) continue;
+      if (unit < 0) unit = u;
+      else if (u != unit) other = true;
+    }
+    if (unit < 0 || other) continue;
+    // Every textured face on this edge is in one unit: open unless two of its own faces meet here.
+    int count = 0;
+    for (int i = 0; i < e.num_faces; ++i)
+      count += g.face_unit[static_cast<size_t>(topo.edge_faces[static_cast<size_t>(e.first_incidence + i)].face)] >= 0;
+    if (count >= 2) continue;
+    open[static_cast<size_t>(unit)] += (mesh.positions[static_cast<size_t>(topo.position_of_vertex[static_cast<size_t>(e.a)])] -
+                                        mesh.positions[static_cast<size_t>(topo.position_of_vertex[static_cast<size_t>(e.b)])]).norm();
+  }
+  return open;
+}
 
 /// The normal a set of faces is judged by: the covariance fit's normal (the paper) when the set has
 /// at least fit_min_faces faces, else the direction of its area-weighted filtered normals (the
@@ -475,6 +509,106 @@ void absorb_small(const Units& U, const Params& p, std::vector<int>& region, int
   rep["jagged_faces_moved"] = moved_faces;
 }
 
+/// Refinement (enclosed regions, our addition for the paper's intent that details end up inside
+/// their facade's region): a region whose border is at least enclosed_border_fraction shared with
+/// one neighbouring region (border = edges shared with other regions plus its open edges) and that
+/// has fewer than enclosed_max_fraction of that neighbour's faces joins it, whatever its angle.
+/// The same holds for a connected cluster of such small regions enclosed together.
+/// Passes repeat until nothing changes; within a pass a region that joins one is never a receiver
+/// and a receiver is not judged itself, so every decision uses borders valid for that pass.
+void absorb_enclosed(const Units& U, const Params& p, std::vector<int>& region, int& n, json& rep) {
+  const UnitGraph& g = U.g;
+  size_t absorbed = 0, moved_faces = 0, passes = 0, groups = 0;
+  for (;;) {
+    const RegionSet rs = aggregate(U, region, n);
+    std::vector<double> open(static_cast<size_t>(n), 0.0);
+    for (int u = 0; u < g.num_units; ++u) open[static_cast<size_t>(region[static_cast<size_t>(u)])] += U.open[static_cast<size_t>(u)];
+    std::vector<int> order(static_cast<size_t>(n));
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return rs.m[static_cast<size_t>(a)].faces < rs.m[static_cast<size_t>(b)].faces; });
+    std::vector<int> target(static_cast<size_t>(n), -1);
+    std::vector<uint8_t> touched(static_cast<size_t>(n), 0);
+    size_t joins = 0;
+    // Joins `members` (untouched regions, none of them `into`) into region `into` when their outer
+    // border (open edges plus edges to regions outside the set) is at least the border fraction
+    // shared with `into` and they have fewer than enclosed_max_fraction of its faces together.
+    auto try_join = [&](const std::vector<int>& members, int into) {
+      if (into < 0 || touched[static_cast<size_t>(into)] == 1) return false;
+      std::vector<uint8_t> in(static_cast<size_t>(n), 0);
+      for (int r : members) in[static_cast<size_t>(r)] = 1;
+      double total = 0, shared = 0;
+      long faces = 0;
+      for (int r : members) {
+        faces += rs.m[static_cast<size_t>(r)].faces;
+        total += open[static_cast<size_t>(r)];
+        for (const auto& [t, l] : rs.nbr[static_cast<size_t>(r)]) {
+          if (in[static_cast<size_t>(t)]) continue;
+          total += l;
+          if (t == into) shared += l;
+        }
+      }
+      if (!(shared >= p.enclosed_border_fraction * total) ||
+          !(static_cast<double>(faces) < p.enclosed_max_fraction * rs.m[static_cast<size_t>(into)].faces))
+        return false;
+      // Members are done (1); the receiver (2) is not judged itself this pass, but further enclosed
+      // regions may still join it: taking in an enclosed set barely changes its outer border.
+      for (int r : members) {
+        target[static_cast<size_t>(r)] = into;
+        touched[static_cast<size_t>(r)] = 1;
+      }
+      touched[static_cast<size_t>(into)] = 2;
+      moved_faces += static_cast<size_t>(faces);
+      joins += members.size();
+      return true;
+    };
+    for (int r : order) {
+      if (touched[static_cast<size_t>(r)]) continue;
+      // (a) The region alone, enclosed by the neighbour sharing its longest border.
+      int longest = -1, largest = -1;
+      double best_len = 0;
+      for (const auto& [t, l] : rs.nbr[static_cast<size_t>(r)]) {
+        if (l > best_len) longest = t, best_len = l;
+        if (largest < 0 || rs.m[static_cast<size_t>(t)].faces > rs.m[static_cast<size_t>(largest)].faces) largest = t;
+      }
+      if (try_join({r}, longest)) continue;
+      // (b) A cluster of small regions (a balcony cut into several pieces) enclosed together by the
+      // region with the most faces around r: flood from r over untouched neighbours other than it
+      // that are small against it; give up when the cluster outgrows the size limit.
+      if (largest < 0 || touched[static_cast<size_t>(largest)] == 1) continue;
+      const double cap = p.enclosed_max_fraction * rs.m[static_cast<size_t>(largest)].faces;
+      std::vector<int> members{r};
+      std::vector<uint8_t> seen(static_cast<size_t>(n), 0);
+      seen[static_cast<size_t>(r)] = 1;
+      double faces = rs.m[static_cast<size_t>(r)].faces;
+      bool too_big = !(faces < cap);
+      for (size_t k = 0; k < members.size() && !too_big; ++k)
+        for (const auto& [t, l] : rs.nbr[static_cast<size_t>(members[k])]) {
+          if (t == largest || seen[static_cast<size_t>(t)] || touched[static_cast<size_t>(t)] ||
+              !(rs.m[static_cast<size_t>(t)].faces < cap))
+            continue;
+          seen[static_cast<size_t>(t)] = 1;
+          members.push_back(t);
+          faces += rs.m[static_cast<size_t>(t)].faces;
+          if (!(faces < cap)) {
+            too_big = true;
+            break;
+          }
+        }
+      if (!too_big && members.size() > 1 && try_join(members, largest)) ++groups;
+    }
+    if (joins == 0) break;
+    ++passes;
+    absorbed += joins;
+    for (int& r : region)
+      if (target[static_cast<size_t>(r)] >= 0) r = target[static_cast<size_t>(r)];
+    n = compact_labels(region);
+  }
+  rep["enclosed_regions_absorbed"] = absorbed;
+  rep["enclosed_faces_moved"] = moved_faces;
+  rep["enclosed_passes"] = passes;
+  rep["enclosed_groups"] = groups;
+}
+
 class RegionGrowingDetector final : public Detector {
  public:
   static StageInfo info() {
@@ -504,6 +638,9 @@ class RegionGrowingDetector final : public Detector {
         opt_int("min_region_faces", 12, "Regions smaller than this are absorbed by the jagged-border refinement when they fit a neighbour's plane").range(1, 1000000),
         opt_double("max_plane_distance", 1.0, "Fit to a neighbour's plane (refinements): RMS distance at most this many mean edge lengths").range(0, 1000),
         opt_int("tiny_region_faces", 3, "Regions with at most this many faces that fit no neighbour join the neighbour with the most faces").range(0, 1000000),
+        opt_bool("absorb_enclosed", true, "Refinement: a small region enclosed by one neighbouring region (a balcony or window reveal inside its facade) joins it whatever its angle"),
+        opt_double("enclosed_max_fraction", 0.1, "An enclosed region joins only when it has fewer than this fraction of the enclosing region's faces").range(0, 1),
+        opt_double("enclosed_border_fraction", 0.9, "Enclosed: at least this fraction of the region's border (shared edges plus open mesh edges, 3D length) is shared with one region").range(0.5, 1),
     };
     for (OptionSpec& o : output_options()) i.options.push_back(std::move(o));
     i.create = [] { return std::make_unique<RegionGrowingDetector>(); };
@@ -528,6 +665,7 @@ class RegionGrowingDetector final : public Detector {
     U.smooth.assign(static_cast<size_t>(nu), Vec3::Zero());
     for (size_t f = 0; f < fn.size(); ++f)
       if (U.g.face_unit[f] >= 0) U.smooth[static_cast<size_t>(U.g.face_unit[f])] += face_area_3d(*ctx.mesh, f) * fn[f];
+    U.open = open_border_lengths(*ctx.mesh, *ctx.topology, U.g);
     rep["units"] = nu;
     ctx.step(kName, 0.4);
     int n = 0;
@@ -538,6 +676,7 @@ class RegionGrowingDetector final : public Detector {
     if (p.strips) dissolve_strips(U, p, region, n, rep);
     if (p.curved) group_curved(U, p, region, n, rep);
     if (p.jagged) absorb_small(U, p, region, n, rep);
+    if (p.enclosed) absorb_enclosed(U, p, region, n, rep);
     ctx.step(kName, 0.9);
     std::vector<int> face_label(ctx.mesh->faces.size(), -1);
     for (size_t f = 0; f < face_label.size(); ++f)

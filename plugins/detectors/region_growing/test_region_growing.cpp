@@ -169,6 +169,98 @@ TEST(DetectorsRegionGrowing, SmallRoofPieceOnAWallStaysAloneUnlessTiny) {
   EXPECT_EQ(tiny.regions, 1);
 }
 
+namespace {
+
+/// Adds a wedge closing the hole x in [x0, x0 + 2], z in [2, 3] of a wall at y = 0 whose faces point
+/// to -y: it sticks out 1 m at the bottom (z = 2; a sloped sill) or at the top (z = 3). Faces: the
+/// 45-degree panel (4 triangles), the horizontal face (4) and the two vertical end triangles (2),
+/// all in chart `chart`, truth `truth`, pointing away from the wedge's inside. Wall-side edges are
+/// split at x0 + 1 like the wall's 1 m grid, so every border edge is a welded wall edge.
+void add_wedge(tmesh::Builder& b, double x0, bool out_at_top, int chart, int truth) {
+  const double zo = out_at_top ? 3 : 2;  // height of the outer edge
+  const Vec3 inside(x0 + 1, -0.3, out_at_top ? 2.7 : 2.3);
+  auto tri = [&](const Vec3& p, const Vec3& q, const Vec3& r) {
+    if ((q - p).cross(r - p).dot((p + q + r) / 3 - inside) > 0) b.add(p, q, r, chart, truth);
+    else b.add(p, r, q, chart, truth);
+  };
+  auto strip = [&](double y0, double z0, double y1, double z1) {  // x0..x0+2, two 1 m quads
+    for (int i = 0; i < 2; ++i) {
+      const double xa = x0 + i, xb = x0 + i + 1;
+      tri(Vec3(xa, y0, z0), Vec3(xb, y0, z0), Vec3(xb, y1, z1));
+      tri(Vec3(xa, y0, z0), Vec3(xb, y1, z1), Vec3(xa, y1, z1));
+    }
+  };
+  const double zi = out_at_top ? 2 : 3;  // wall edge the panel starts from
+  strip(-1, zo, 0, zi);  // panel
+  strip(0, zo, -1, zo);  // horizontal face
+  for (const double x : {x0, x0 + 2}) tri(Vec3(x, 0, 2), Vec3(x, 0, 3), Vec3(x, -1, zo));
+}
+
+/// Wall y = 0, x in [0, 10], z in [0, 8], 1 m quads in 2x2-quad charts, with the hole x in
+/// [3, 3 + hole_width], z in [2, 3] left open. Returns the next free chart id.
+int add_wall_with_hole(tmesh::Builder& b, int hole_width) {
+  int next = b.add_grid(Vec3(0, 0, 0), Vec3(10, 0, 0), Vec3(0, 0, 2), 10, 2, 2, 2, 0, 0);
+  next = b.add_grid(Vec3(0, 0, 2), Vec3(3, 0, 0), Vec3(0, 0, 1), 3, 1, 2, 2, next, 0);
+  const int right = 3 + hole_width;
+  next = b.add_grid(Vec3(right, 0, 2), Vec3(10 - right, 0, 0), Vec3(0, 0, 1), 10 - right, 1, 2, 2, next, 0);
+  return b.add_grid(Vec3(0, 0, 3), Vec3(10, 0, 0), Vec3(0, 0, 5), 10, 5, 2, 2, next, 0);
+}
+
+// Options isolating the enclosed rule: wedges stay one unit (no split), units are judged by their
+// covariance fit (tilted ~45 degrees, so growth never takes a wedge into the wall), jagged off.
+const json kEnclosedIso = {{"split_nonplanar_patches", false}, {"fit_min_faces", 1}, {"jagged_borders", false}};
+
+}  // namespace
+
+TEST(DetectorsRegionGrowing, EnclosedTiltedBumpJoinsItsWall) {
+  // A 10 x 8 m wall (156 faces) with a 2 x 1 m hole closed by a wedge sticking out 1 m (10 faces).
+  // Every border edge of the wedge is a wall edge (fully enclosed) and 10 < 0.1 * 156.
+  tmesh::Builder b;
+  add_wedge(b, 3, false, add_wall_with_hole(b, 2), 1);
+  const tmesh::Case c = b.build("enclosed_bump");
+  ASSERT_EQ(c.mesh.faces.size(), 166u);
+  json off_opts = kEnclosedIso, small_opts = kEnclosedIso;
+  off_opts["absorb_enclosed"] = false;
+  small_opts["enclosed_max_fraction"] = 0.05;  // 10 faces is not under 0.05 * 156 = 7.8
+  const auto off = score(c, kRG, off_opts);
+  EXPECT_EQ(off.regions, 2);
+  EXPECT_DOUBLE_EQ(off.accuracy, 1.0);
+  EXPECT_EQ(score(c, kRG, small_opts).regions, 2);
+  json rep;
+  const auto on = score(c, kRG, kEnclosedIso, &rep);
+  EXPECT_EQ(on.regions, 1);
+  EXPECT_EQ(rep["enclosed_regions_absorbed"], 1);
+  EXPECT_EQ(rep["enclosed_faces_moved"], 10);
+  // With all defaults the wedge ends up in the wall too.
+  EXPECT_EQ(score(c, kRG).regions, 1);
+}
+
+TEST(DetectorsRegionGrowing, EnclosedClusterOfTwoRegionsJoinsItsWall) {
+  // The same wall with a 4 x 1 m hole (152 faces) closed by two wedges meeting at x = 5: wedge 1
+  // sticks out at the bottom, wedge 2 at the top (panels 90 degrees apart: they never grow
+  // together); each has its own end triangle at x = 5 and the two share only the edge
+  // (5,0,2)-(5,0,3). Border of each: 5 m wall, 1 m the other wedge: 5/6 < 0.9, not enclosed alone;
+  // together: 10 m, all wall: enclosed. 20 faces < 0.2 * 152.
+  tmesh::Builder b;
+  const int next = add_wall_with_hole(b, 4);
+  add_wedge(b, 3, false, next, 1);
+  add_wedge(b, 5, true, next + 1, 2);
+  const tmesh::Case c = b.build("enclosed_cluster");
+  ASSERT_EQ(c.mesh.faces.size(), 172u);
+  json on_opts = kEnclosedIso;
+  on_opts["enclosed_max_fraction"] = 0.2;
+  json off_opts = on_opts;
+  off_opts["absorb_enclosed"] = false;
+  const auto off = score(c, kRG, off_opts);
+  EXPECT_EQ(off.regions, 3);
+  EXPECT_DOUBLE_EQ(off.accuracy, 1.0);
+  json rep;
+  const auto on = score(c, kRG, on_opts, &rep);
+  EXPECT_EQ(on.regions, 1);
+  EXPECT_EQ(rep["enclosed_groups"], 1);
+  EXPECT_EQ(rep["enclosed_faces_moved"], 20);
+}
+
 TEST(DetectorsRegionGrowing, DeclaresOptionsAndRejectsOutOfRange) {
   Registry::instance().load_plugins();
   const StageInfo* info = Registry::instance().find(kRG);
@@ -180,6 +272,10 @@ TEST(DetectorsRegionGrowing, DeclaresOptionsAndRejectsOutOfRange) {
   EXPECT_EQ(o.get_double("w_compactness"), 0.3);
   EXPECT_EQ(o.get_double("w_normal"), 0.3);
   EXPECT_EQ(o.get_string("write_labels"), "");
+  EXPECT_TRUE(o.get_bool("absorb_enclosed"));
+  EXPECT_EQ(o.get_double("enclosed_max_fraction"), 0.1);
+  EXPECT_EQ(o.get_double("enclosed_border_fraction"), 0.9);
+  EXPECT_THROW(default_options(*info, {{"enclosed_border_fraction", 0.4}}), std::invalid_argument);
   EXPECT_THROW(default_options(*info, {{"angle_threshold_deg", 95}}), std::invalid_argument);
   EXPECT_THROW(default_options(*info, {{"angle_treshold_deg", 20}}), std::invalid_argument);
 }
