@@ -78,6 +78,12 @@ TEST(OptCutsReal, PlanarityOrderWithoutRegions) { run_real("mergers.optcuts", js
 TEST(OptCutsReal, PlanarityOrderWithRegionGrowing) {
   run_real("mergers.optcuts", json::object(), 0.5, "detectors.region_growing");
 }
+// configs/best.json's merger: the paper's configuration, then a second pass across regions.
+TEST(OptCutsReal, SecondPassAcrossRegions) {
+  run_real("mergers.optcuts",
+           {{"second_pass", "across_regions"}, {"second_pass_local_bound", 0.1}, {"second_pass_seam_refusal", false}},
+           0.25, "detectors.region_growing");
+}
 TEST(ArapReal, MMethodOnRealTiles) { run_real("mergers.arap", {{"priority", "mmethod"}}, 0.25); }
 
 }  // namespace
