@@ -7,8 +7,7 @@ bash scripts/install-deps.sh
 BUILD=${BUILD_DIR:-build}
 cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=Release -DTEXDEFRAG_BUILD_TESTS=OFF -DTEXDEFRAG_BUILD_BENCHMARKS=OFF >/dev/null
 cmake --build "$BUILD" -j"$(nproc)"
-CONFIG=${CONFIG:-configs/paper.json}
-[ -f "$CONFIG" ] || CONFIG=configs/repack.json
+CONFIG=${CONFIG:-configs/best.json}
 MODEL=examples/building/building.obj
 OUT=${OUT:-out/demo}
 "$BUILD/bin/texdefrag" run -c "$CONFIG" "$MODEL" -o "$OUT"
