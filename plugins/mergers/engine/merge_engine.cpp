@@ -10,6 +10,7 @@
 #include "texdefrag/core/distortion.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <limits>
 #include <cmath>
@@ -125,7 +126,13 @@ struct ChartInfo {
   std::vector<int> faces;
   std::vector<std::pair<int, int>> boundary;           ///< (face, local edge)
   std::unordered_map<int, std::vector<int>> adj;       ///< neighbour chart -> seam edge ids
+  /// Its triangles with input UV area > 0 (current positions), uniform hash grid: cell -> faces.
+  std::unordered_map<long long, std::vector<int>> tri_cells;
+  std::vector<int> tri_big;  ///< triangles spanning more than kMaxTriCells cells (always tested)
 };
+
+/// A triangle spanning more cells than this goes to its chart's tri_big list instead of the grid.
+constexpr long long kMaxTriCells = 64;
 
 struct Entry {
   double score;  ///< larger first
@@ -223,6 +230,26 @@ class Engine {
   int epoch_ = 0;
   std::vector<int> wstamp_, wmoved_, wrep_, wvisit_, wdone_, wfan_, fstamp_, fchanged_;
   std::vector<double> wdist_;
+  // ---- per-chart triangle grids (cell size tri_cell_, shared by all charts)
+  double tri_cell_ = 1;
+  std::vector<int> fowner_;                 ///< chart whose grid holds face f (-1: none)
+  std::vector<std::array<int, 4>> fcells_;  ///< cell range x0, y0, x1, y1 it was inserted with
+  std::vector<int> fseen_;                  ///< query stamps
+  int seen_stamp_ = 0;
+  static long long cell_key(long long x, long long y) { return (x << 32) ^ (y & 0xffffffffLL); }
+  void tri_box(int f, Vec2& lo, Vec2& hi) const {
+    lo = hi = at_.wedge_uv[static_cast<size_t>(wedge(f, 0))];
+    for (int k = 1; k < 3; ++k) {
+      lo = lo.cwiseMin(at_.wedge_uv[static_cast<size_t>(wedge(f, k))]);
+      hi = hi.cwiseMax(at_.wedge_uv[static_cast<size_t>(wedge(f, k))]);
+    }
+  }
+  int cell_of(double x) const {
+    const double q = std::floor(x / tri_cell_);
+    return static_cast<int>(std::max(-1e9, std::min(1e9, q)));
+  }
+  void grid_insert(int c, int f);
+  void grid_remove(int f);
   std::vector<std::pair<int, Vec2>> saved_uv_;
   std::vector<std::pair<int, std::array<int, 3>>> saved_fw_;
   int saved_small_ = -1;
@@ -369,6 +396,27 @@ void Engine::setup() {
   wdone_.assign(at_.wedge_uv.size(), 0);
   fstamp_.assign(nf, 0);
   fchanged_.assign(nf, 0);
+  // Triangle grids: cell = twice the mean longest UV edge of the textured faces.
+  fowner_.assign(nf, -1);
+  fcells_.assign(nf, {1, 1, 0, 0});
+  fseen_.assign(nf, 0);
+  {
+    double sum = 0;
+    size_t n = 0;
+    for (size_t f = 0; f < nf; ++f) {
+      if (rest_w_[f] == 0) continue;
+      Vec2 lo, hi;
+      tri_box(static_cast<int>(f), lo, hi);
+      const double e = (hi - lo).maxCoeff();
+      if (std::isfinite(e)) {
+        sum += e;
+        ++n;
+      }
+    }
+    tri_cell_ = n > 0 && sum > 0 ? 2 * sum / static_cast<double>(n) : 1;
+  }
+  for (size_t f = 0; f < nf; ++f)
+    if (rest_w_[f] > 0 && at_.face_chart[f] >= 0) grid_insert(at_.face_chart[f], static_cast<int>(f));
 }
 
 Mat2 Engine::jacobian(int f) const {
@@ -516,6 +564,45 @@ void Engine::rollback() {
   for (auto it = saved_fw_.rbegin(); it != saved_fw_.rend(); ++it)
     at_.face_wedge[static_cast<size_t>(it->first)] = it->second;
   for (int f : C(saved_small_).faces) at_.face_chart[static_cast<size_t>(f)] = saved_small_;
+}
+
+void Engine::grid_insert(int c, int f) {
+  ChartInfo& ch = C(c);
+  Vec2 lo, hi;
+  tri_box(f, lo, hi);
+  std::array<int, 4>& r = fcells_[static_cast<size_t>(f)];
+  r = {cell_of(lo.x()), cell_of(lo.y()), cell_of(hi.x()), cell_of(hi.y())};
+  fowner_[static_cast<size_t>(f)] = c;
+  if (static_cast<long long>(r[2] - r[0] + 1) * (r[3] - r[1] + 1) > kMaxTriCells) {
+    r = {1, 1, 0, 0};  // empty range: lives in tri_big
+    ch.tri_big.push_back(f);
+    return;
+  }
+  for (int y = r[1]; y <= r[3]; ++y)
+    for (int x = r[0]; x <= r[2]; ++x) ch.tri_cells[cell_key(x, y)].push_back(f);
+}
+
+void Engine::grid_remove(int f) {
+  const int c = fowner_[static_cast<size_t>(f)];
+  if (c < 0) return;
+  ChartInfo& ch = C(c);
+  const std::array<int, 4>& r = fcells_[static_cast<size_t>(f)];
+  auto drop = [f](std::vector<int>& v) {
+    auto it = std::find(v.begin(), v.end(), f);
+    if (it != v.end()) {
+      *it = v.back();
+      v.pop_back();
+    }
+  };
+  if (r[0] > r[2]) drop(ch.tri_big);
+  for (int y = r[1]; y <= r[3]; ++y)
+    for (int x = r[0]; x <= r[2]; ++x) {
+      auto it = ch.tri_cells.find(cell_key(x, y));
+      if (it == ch.tri_cells.end()) continue;
+      drop(it->second);
+      if (it->second.empty()) ch.tri_cells.erase(it);
+    }
+  fowner_[static_cast<size_t>(f)] = -1;
 }
 
 bool Engine::try_merge(int a, int b, std::string& reason) {
@@ -842,21 +929,60 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
         mt.push_back(tri2(f));
         grow(mt.back());
       }
-    for (int f : Bg.faces)
-      if (rest_w_[static_cast<size_t>(f)] > 0 && fchanged_[static_cast<size_t>(f)] == epoch_) {
+    // The bigger chart's changed faces (every face with fchanged_ == epoch_ is in `changed`).
+    for (int f : changed)
+      if (rest_w_[static_cast<size_t>(f)] > 0 && fowner_[static_cast<size_t>(f)] == big) {
         mt.push_back(tri2(f));
         grow(mt.back());
       }
-    for (int f : Bg.faces) {
-      if (rest_w_[static_cast<size_t>(f)] == 0 || fchanged_[static_cast<size_t>(f)] == epoch_) continue;
-      // Only triangles whose box meets the moved triangles' box can overlap them.
+    // Only the bigger chart's unchanged triangles whose box meets the moved triangles' box can overlap
+    // them. Candidates come from its triangle grid, queried with each moved triangle's box widened by
+    // more than triangles_overlap's touching tolerance (1e-7 x the longest edge of the pair; grid
+    // triangles span at most kMaxTriCells cells); when the query would visit more cells than the chart
+    // has faces, scan the faces instead.
+    auto keep = [&](int f) {
+      if (fchanged_[static_cast<size_t>(f)] == epoch_ || rest_w_[static_cast<size_t>(f)] == 0) return;
       const Vec2& a = uv(wedge(f, 0));
       const Vec2& b = uv(wedge(f, 1));
       const Vec2& c = uv(wedge(f, 2));
       if (std::max({a.x(), b.x(), c.x()}) < lo.x() || std::min({a.x(), b.x(), c.x()}) > hi.x() ||
           std::max({a.y(), b.y(), c.y()}) < lo.y() || std::min({a.y(), b.y(), c.y()}) > hi.y())
-        continue;
+        return;
       rest.push_back(tri2(f));
+    };
+    std::vector<std::array<int, 4>> qr;
+    qr.reserve(mt.size());
+    double ncells = 0;
+    for (const Tri2& t : mt) {
+      Vec2 a = t.p[0], b = t.p[0];
+      double l = 0;
+      for (int k = 0; k < 3; ++k) {
+        a = a.cwiseMin(t.p[static_cast<size_t>(k)]);
+        b = b.cwiseMax(t.p[static_cast<size_t>(k)]);
+        l = std::max(l, (t.p[static_cast<size_t>(k)] - t.p[static_cast<size_t>((k + 1) % 3)]).norm());
+      }
+      const double margin = 1e-6 * l + 1e-4 * tri_cell_;
+      qr.push_back({cell_of(a.x() - margin), cell_of(a.y() - margin), cell_of(b.x() + margin), cell_of(b.y() + margin)});
+      const std::array<int, 4>& r = qr.back();
+      ncells += (static_cast<double>(r[2]) - r[0] + 1) * (static_cast<double>(r[3]) - r[1] + 1);
+    }
+    if (ncells > static_cast<double>(Bg.faces.size())) {
+      for (int f : Bg.faces) keep(f);
+    } else {
+      ++seen_stamp_;
+      auto visit = [&](int f) {
+        if (fseen_[static_cast<size_t>(f)] == seen_stamp_) return;
+        fseen_[static_cast<size_t>(f)] = seen_stamp_;
+        keep(f);
+      };
+      for (int f : Bg.tri_big) visit(f);
+      for (const auto& r : qr)
+        for (int y = r[1]; y <= r[3]; ++y)
+          for (int x = r[0]; x <= r[2]; ++x) {
+            auto it = Bg.tri_cells.find(cell_key(x, y));
+            if (it == Bg.tri_cells.end()) continue;
+            for (int f : it->second) visit(f);
+          }
     }
     if (any_triangle_overlap(mt, rest)) {
       reason = "overlap";
@@ -868,6 +994,15 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
   // Accept: commit distortion, chart data and adjacency.
   for (size_t i = 0; i < changed.size(); ++i) err_w_[static_cast<size_t>(changed[i])] = new_err[i];
   err_sum_ = new_sum;
+  for (int f : changed)
+    if (fowner_[static_cast<size_t>(f)] == big) grid_remove(f);
+  for (int f : Sm.faces) fowner_[static_cast<size_t>(f)] = -1;
+  Sm.tri_cells.clear();
+  Sm.tri_big.clear();
+  for (int f : Sm.faces)
+    if (rest_w_[static_cast<size_t>(f)] > 0) grid_insert(big, f);
+  for (int f : changed)
+    if (rest_w_[static_cast<size_t>(f)] > 0 && fowner_[static_cast<size_t>(f)] != big) grid_insert(big, f);
   Bg.faces.insert(Bg.faces.end(), Sm.faces.begin(), Sm.faces.end());
   Sm.faces.clear();
   Sm.faces.shrink_to_fit();
