@@ -11,6 +11,11 @@
 // aligned segment ends) minimising the new local peak y + h, ties broken by the space it encloses
 // and then the leftmost position. A page that cannot take a rectangle under max_page_size passes it
 // to the next page.
+// Outline tail (tail_side > 0): charts whose padded box is below tail_side^2 come last and are
+// placed by their dilated outline at the lowest, then leftmost, free position anywhere on the page
+// (bottom-left fill on a per-row run-length occupancy raster), which fills the enclosed spaces and
+// the empty corners of the rectangles' boxes with outlines; the charts placed as rectangles occupy
+// only their dilated outline there.
 #include "texdefrag/packers/horizon.h"
 #include "texdefrag/packers/packing.h"
 #include "texdefrag/stage/registry.h"
@@ -18,6 +23,7 @@
 #include <algorithm>
 #include <chrono>
 #include <climits>
+#include <tuple>
 
 namespace texdefrag {
 namespace {
@@ -106,6 +112,7 @@ class PageState {
   /// Places a rectangle inside hole `which`, at its lower-left corner.
   Rect place_in_hole(size_t which, int w, int h, int min_side) {
     const Rect r{holes_[which].x, holes_[which].y, w, h};
+    placed_.push_back(r);
     std::vector<Rect> pieces;
     for (size_t i = 0; i < holes_.size();) {
       const Rect f = holes_[i];
@@ -149,16 +156,12 @@ class PageState {
       }
     }
     add_holes(pieces, min_side);
+    placed_.push_back({x, y, w, h});
     return {x, y, w, h};
   }
 
-  /// The horizon's height per column (texels), for the outline tail.
-  std::vector<int> heights() const {
-    std::vector<int> h(static_cast<size_t>(width_), 0);
-    for (const Seg& s : sky_)
-      for (int x = s.x; x < s.x + s.w; ++x) h[static_cast<size_t>(x)] = s.y;
-    return h;
-  }
+  /// Padded boxes placed on this page.
+  const std::vector<Rect>& placed() const { return placed_; }
 
  private:
   void add_holes(const std::vector<Rect>& pieces, int min_side) {
@@ -185,18 +188,155 @@ class PageState {
 
   int width_, height_;
   std::vector<Seg> sky_;    ///< the horizon h(u): consecutive segments covering [0, width)
+  std::vector<Rect> placed_;
   std::vector<Rect> holes_; ///< enclosed unused space, as possibly overlapping maximal rectangles
 };
 
-/// tail: charts from order[tail] on are small; after the enclosed spaces they are dropped by their
-/// outline on the horizon (Tetris drop), with `profiles` per chart id.
+
+/// Outline of a chart in one quarter turn, dilated by the gutter: per row, runs [a, a + len) of
+/// covered cells (relative to the padded box's lower-left corner).
+struct RunMask {
+  int w = 0, h = 0;
+  std::vector<std::vector<std::pair<int, int>>> rows;  ///< (a, len) per row
+  bool duplicate = false;
+  int wide_row = 0, wide_a = 0, wide_len = 0;  ///< the longest run (checked first)
+};
+
+RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s) {
+  const packing::Mask m = packing::dilate(c.raster(q), s.gutter / 2, s.gutter - s.gutter / 2);
+  RunMask r;
+  r.w = m.width;
+  r.h = m.height;
+  r.rows.resize(static_cast<size_t>(m.height));
+  for (int y = 0; y < m.height; ++y)
+    for (int x = 0; x < m.width;) {
+      if (!m.at(x, y)) { ++x; continue; }
+      int e = x;
+      while (e < m.width && m.at(e, y)) ++e;
+      r.rows[static_cast<size_t>(y)].push_back({x, e - x});
+      if (e - x > r.wide_len) { r.wide_row = y; r.wide_a = x; r.wide_len = e - x; }
+      x = e;
+    }
+  return r;
+}
+
+/// A page's occupancy for the outline tail: per row, run lengths (> 0: free cells from here to the
+/// right, <= 0: minus the occupied cells from here), and each row's longest free run. Rows above
+/// the allocated ones are empty.
+class RasterPage {
+ public:
+  RasterPage(int width, int height) : width_(width), height_(height) {}
+  int used() const { return used_; }
+
+  void fill_rect(int x, int y, int w, int h) {
+    for (int r = y; r < y + h; ++r) {
+      ensure(r);
+      auto& row = occ_[static_cast<size_t>(r)];
+      std::fill(row.begin() + x, row.begin() + x + w, uint8_t{1});
+      rebuild(r);
+    }
+    used_ = std::max(used_, y + h);
+  }
+  void fill_mask(const RunMask& m, int x, int y) {
+    for (int r = 0; r < m.h; ++r) {
+      if (m.rows[static_cast<size_t>(r)].empty()) continue;
+      ensure(y + r);
+      auto& row = occ_[static_cast<size_t>(y + r)];
+      for (const auto& [a, len] : m.rows[static_cast<size_t>(r)])
+        std::fill(row.begin() + x + a, row.begin() + x + a + len, uint8_t{1});
+      rebuild(y + r);
+    }
+    used_ = std::max(used_, y + m.h);
+  }
+
+  /// Lowest (then leftmost) position where mask m fits with its top at most max_top; false if none.
+  bool first_fit(const RunMask& m, int max_top, int& bx, int& by) const {
+    if (m.w > width_ || m.wide_len == 0) return false;
+    max_top = std::min(max_top, height_);
+    const int rw = m.wide_row, aw = m.wide_a, kw = m.wide_len;
+    for (int y = 0; y + m.h <= max_top; ++y) {
+      if (y + rw >= static_cast<int>(occ_.size())) {  // the widest row is above the used rows
+        for (int x = 0; x + m.w <= width_;) {
+          int jump = 0;
+          if (fits(m, x, y, jump)) { bx = x; by = y; return true; }
+          x += jump;
+        }
+        continue;
+      }
+      const size_t yw = static_cast<size_t>(y + rw);
+      if (maxrun_[yw] < kw) continue;
+      // Candidate x: the widest row's interval inside a free run of row y + rw that is long enough.
+      const auto& run = run_[yw];
+      for (int s0 = 0; s0 < width_;) {
+        const int v = run[static_cast<size_t>(s0)];
+        if (v <= 0) { s0 -= v; continue; }
+        if (v >= kw) {
+          const int xlo = std::max(0, s0 - aw), xhi = std::min(width_ - m.w, s0 + v - kw - aw);
+          for (int x = xlo; x <= xhi;) {
+            int jump = 0;
+            if (fits(m, x, y, jump)) { bx = x; by = y; return true; }
+            x += jump;
+          }
+        }
+        s0 += v;
+      }
+    }
+    return false;
+  }
+
+ private:
+  /// Whether m fits at (x, y); otherwise jump = how far x may advance (> 0).
+  bool fits(const RunMask& m, int x, int y, int& jump) const {
+    for (int r = 0; r < m.h; ++r) {
+      const size_t yr = static_cast<size_t>(y + r);
+      if (yr >= run_.size()) return true;
+      const auto& run = run_[yr];
+      for (const auto& [a, len] : m.rows[static_cast<size_t>(r)]) {
+        const int v = run[static_cast<size_t>(x + a)];
+        if (v <= 0) { jump = -v; return false; }
+        if (v < len) { jump = v + 1; return false; }
+      }
+    }
+    return true;
+  }
+  void ensure(int r) {
+    while (static_cast<int>(occ_.size()) <= r) {
+      occ_.emplace_back(static_cast<size_t>(width_), uint8_t{0});
+      run_.emplace_back(static_cast<size_t>(width_), 0);
+      maxrun_.push_back(width_);
+      rebuild(static_cast<int>(occ_.size()) - 1);
+    }
+  }
+  void rebuild(int r) {
+    const auto& o = occ_[static_cast<size_t>(r)];
+    auto& run = run_[static_cast<size_t>(r)];
+    int best = 0, cur = 0;
+    bool curfree = true;
+    for (int x = width_; x-- > 0;) {
+      const bool f = o[static_cast<size_t>(x)] == 0;
+      if (x == width_ - 1 || f != curfree) { cur = 0; curfree = f; }
+      ++cur;
+      run[static_cast<size_t>(x)] = f ? cur : -cur;
+      if (f) best = std::max(best, cur);
+    }
+    maxrun_[static_cast<size_t>(r)] = best;
+  }
+  int width_, height_, used_ = 0;
+  std::vector<std::vector<uint8_t>> occ_;
+  std::vector<std::vector<int>> run_;
+  std::vector<int> maxrun_;
+};
+
+/// tail: charts from order[tail] on are small; they are placed by their dilated outline at the lowest
+/// free position of the page (RasterPage), with `profiles` (outline run masks per turn) per chart id.
 PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, const std::vector<int>& order,
-                              size_t tail, const std::vector<std::vector<packing::Profile>>& profiles,
+                              size_t tail, const std::vector<std::vector<RunMask>>& profiles,
                               int width, const StageContext& ctx) {
   PackResult r;
   r.placements.assign(in.charts.size(), Placement{});
   std::vector<PageState> pages;
-  std::vector<packing::Horizon> horizons;  // the pages' horizons once the tail starts
+  std::vector<RasterPage> rasters;  // the pages' occupancy once the tail starts
+  std::vector<std::vector<std::tuple<int, int, Rect>>> boxes;  // per page: chart, turn, padded box
   // Smallest short side among the charts still to come: holes narrower than that are dropped.
   std::vector<int> suffix_min(order.size() + 1, INT_MAX);
   for (size_t i = order.size(); i-- > 0;) {
@@ -219,7 +359,7 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
       long long best = -1;
       size_t best_hole = 0;
       int best_q = 0;
-      for (int q = 0; q < nq; ++q) {
+      for (int q = 0; q < nq && n < tail; ++q) {
         size_t which = 0;
         const long long left =
             pg.best_hole(packing::padded_w(c, q, s), packing::padded_h(c, q, s), suffix_min[n], which);
@@ -234,26 +374,44 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
         at = pg.place_in_hole(best_hole, packing::padded_w(c, best_q, s), packing::padded_h(c, best_q, s), min_side);
         ++r.hole_fills;
       } else if (n >= tail) {
-        // 3. small charts: outline drop on the horizon.
-        while (horizons.size() < pages.size()) horizons.emplace_back(pages[horizons.size()].heights());
-        packing::Horizon& hz = horizons[p];
+        // 3. small charts: lowest position of the outline anywhere on the page (holes included).
+        if (boxes.size() < pages.size()) boxes.resize(pages.size());
+        while (rasters.size() < pages.size()) {
+          rasters.emplace_back(width, s.max_page_size);
+          // Charts placed as rectangles occupy their dilated outline only: the tail may use the
+          // corners of their boxes.
+          for (const auto& [id, q, b] : boxes[rasters.size() - 1]) {
+            const auto& m = profiles[static_cast<size_t>(id)];
+            if (static_cast<size_t>(q) < m.size() && !m[static_cast<size_t>(q)].duplicate)
+              rasters.back().fill_mask(m[static_cast<size_t>(q)], b.x, b.y);
+            else
+              rasters.back().fill_rect(b.x, b.y, b.w, b.h);
+          }
+        }
+        RasterPage& rp = rasters[p];
         const auto& profs = profiles[static_cast<size_t>(c.id)];
-        packing::Drop d;
+        bool found = false;
+        int bx = 0, by = 0, btop = 0;
         for (size_t q = 0; q < profs.size(); ++q) {
           if (profs[q].duplicate) continue;
-          const packing::Drop e = packing::best_drop(hz, s.max_page_size, profs[q]);
-          if (e.found && (!d.found || e.cost < d.cost || (e.cost == d.cost && e.top < d.top))) {
-            d = e;
+          int x = 0, y = 0;
+          if (!rp.first_fit(profs[q], found ? btop : INT_MAX, x, y)) continue;
+          const int top = y + profs[q].h;
+          if (!found || top < btop) {
+            found = true;
+            btop = top;
+            bx = x;
+            by = y;
             best_q = static_cast<int>(q);
           }
         }
-        if (!d.found) {
+        if (!found) {
           if (fresh) break;
           continue;
         }
-        hz.place(profs[static_cast<size_t>(best_q)], d);
+        rp.fill_mask(profs[static_cast<size_t>(best_q)], bx, by);
         ++r.outline_drops;
-        at = Rect{d.x, d.y, 0, 0};
+        at = Rect{bx, by, 0, 0};
       } else {
         // 2. on the horizon, lowest new peak.
         bool found = false;
@@ -280,6 +438,10 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
         }
         at = pg.place_on_horizon(bx, by, packing::padded_w(c, best_q, s), packing::padded_h(c, best_q, s), min_side);
       }
+      if (n < tail) {
+        if (boxes.size() <= p) boxes.resize(p + 1);
+        boxes[p].emplace_back(c.id, best_q, at);
+      }
       r.placements[static_cast<size_t>(c.id)] = Placement{static_cast<int>(p), at.x + lo, at.y + lo, best_q};
       placed = true;
     }
@@ -301,8 +463,8 @@ class SquareTetris : public Packer {
     i.doc = "docs/packers.md";
     i.options = packing::common_options(true, 5);
     i.options.push_back(opt_int("tail_side", 0,
-                                "Charts whose padded box is smaller than tail_side^2 texels are packed last: into enclosed "
-                                "spaces, else dropped by their outline on the horizon (0: rectangles only)")
+                                "Charts whose padded box is smaller than tail_side^2 texels are packed last by their outline, "
+                                "at the lowest free position of the page, holes and box corners included (0: rectangles only)")
                             .range(0, 4096)
                             .unit("texels"));
     i.create = [] { return std::make_unique<SquareTetris>(); };
@@ -323,9 +485,16 @@ class SquareTetris : public Packer {
       if (static_cast<long long>(packing::padded_w(c, 0, s)) * packing::padded_h(c, 0, s) >= tail_side * tail_side) break;
       --tail;
     }
-    std::vector<std::vector<packing::Profile>> profiles(in.charts.size());
-    for (size_t n = tail; n < order.size(); ++n)
-      profiles[static_cast<size_t>(order[n])] = packing::make_profiles(in.charts[static_cast<size_t>(order[n])], s);
+    std::vector<std::vector<RunMask>> profiles(in.charts.size());
+    for (size_t n = 0; n < order.size(); ++n) {
+      const PackChart& c = in.charts[static_cast<size_t>(order[n])];
+      const std::vector<packing::Profile> pr = packing::make_profiles(c, s);
+      auto& out = profiles[static_cast<size_t>(order[n])];
+      for (size_t q = 0; q < pr.size(); ++q) {
+        out.push_back(pr[q].duplicate ? RunMask{} : make_run_mask(c, static_cast<int>(q), s));
+        out.back().duplicate = pr[q].duplicate;
+      }
+    }
     const PackResult r = packing::pack_best_width(
         in, s, [&](int width) { return pack_square_tetris(in, s, order, tail, profiles, width, ctx); });
     ctx.step(name, 1.0);
