@@ -267,19 +267,14 @@ class RasterPage {
       const size_t yw = static_cast<size_t>(y + rw);
       if (maxrun_[yw] < kw) continue;
       // Candidate x: the widest row's interval inside a free run of row y + rw that is long enough.
-      const auto& run = run_[yw];
-      for (int s0 = 0; s0 < width_;) {
-        const int v = run[static_cast<size_t>(s0)];
-        if (v <= 0) { s0 -= v; continue; }
-        if (v >= kw) {
-          const int xlo = std::max(0, s0 - aw), xhi = std::min(width_ - m.w, s0 + v - kw - aw);
-          for (int x = xlo; x <= xhi;) {
-            int jump = 0;
-            if (fits(m, x, y, jump)) { bx = x; by = y; return true; }
-            x += jump;
-          }
+      for (const auto& [s0, v] : free_[yw]) {
+        if (v < kw) continue;
+        const int xlo = std::max(0, s0 - aw), xhi = std::min(width_ - m.w, s0 + v - kw - aw);
+        for (int x = xlo; x <= xhi;) {
+          int jump = 0;
+          if (fits(m, x, y, jump)) { bx = x; by = y; return true; }
+          x += jump;
         }
-        s0 += v;
       }
     }
     return false;
@@ -304,6 +299,7 @@ class RasterPage {
     while (static_cast<int>(occ_.size()) <= r) {
       occ_.emplace_back(static_cast<size_t>(width_), uint8_t{0});
       run_.emplace_back(static_cast<size_t>(width_), 0);
+      free_.emplace_back();
       maxrun_.push_back(width_);
       rebuild(static_cast<int>(occ_.size()) - 1);
     }
@@ -321,11 +317,19 @@ class RasterPage {
       if (f) best = std::max(best, cur);
     }
     maxrun_[static_cast<size_t>(r)] = best;
+    auto& fr = free_[static_cast<size_t>(r)];
+    fr.clear();
+    for (int x = 0; x < width_;) {
+      const int v = run[static_cast<size_t>(x)];
+      if (v > 0) fr.emplace_back(x, v);
+      x += v > 0 ? v : -v;
+    }
   }
   int width_, height_, used_ = 0;
   std::vector<std::vector<uint8_t>> occ_;
   std::vector<std::vector<int>> run_;
   std::vector<int> maxrun_;
+  std::vector<std::vector<std::pair<int, int>>> free_;  ///< per row: free runs (start, length), left to right
 };
 
 /// tail: charts from order[tail] on are small; they are placed by their dilated outline at the lowest
