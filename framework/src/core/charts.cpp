@@ -176,10 +176,8 @@ std::vector<ChartStats> chart_stats(const TexturedMesh& mesh, const Topology& to
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
     s.eigenvalues = es.eigenvalues().cwiseMax(0.0);
     s.normal = es.eigenvectors().col(0);
-    // Orient the plane normal with the area-weighted face normals.
-    (void)0;
   }
-  // Orientation pass.
+  // Orient each plane normal with the chart's area-weighted face normals.
   std::vector<Vec3> nsum(nc, Vec3::Zero());
   for (size_t f = 0; f < atlas.face_chart.size(); ++f) {
     const int c = atlas.face_chart[f];

@@ -68,23 +68,6 @@ void write_test_image(const std::string& path, int width, int height, bool gradi
   write_image(path, img, ImageFormat::Png);
 }
 
-void write_smooth_test_image(const std::string& path, int width, int height, double period) {
-  Image img;
-  img.width = width;
-  img.height = height;
-  img.channels = 3;
-  img.pixels.resize(static_cast<size_t>(width) * static_cast<size_t>(height) * 3);
-  const double w = 2 * M_PI / period;
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      uint8_t* p = img.at(x, y);
-      p[0] = static_cast<uint8_t>(128 + 100 * std::sin(w * x) * std::cos(0.7 * w * y));
-      p[1] = static_cast<uint8_t>(128 + 100 * std::sin(0.8 * w * (x + y)));
-      p[2] = static_cast<uint8_t>(128 + 100 * std::cos(0.6 * w * x - 0.9 * w * y));
-    }
-  write_image(path, img, ImageFormat::Png);
-}
-
 void write_surface_texture(const TexturedMesh& mesh, int page, const std::string& path, double period_3d,
                            int padding) {
   const Page& pg = mesh.pages[static_cast<size_t>(page)];

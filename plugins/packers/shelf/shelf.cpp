@@ -1,6 +1,7 @@
 // packers.shelf: the simplest baseline packer. Charts keep their orientation and the input texel
 // density; each is moved by a whole-texel translation (so untouched charts are copied bit-exact),
 // sorted by height and laid left to right on shelves; a new page starts when a page is full.
+#include "texdefrag/packers/packing.h"
 #include "texdefrag/stage/registry.h"
 
 #include <algorithm>
@@ -9,15 +10,6 @@
 
 namespace texdefrag {
 namespace {
-
-int round_up(int v, int multiple, bool pow2) {
-  if (pow2) {
-    int p = 1;
-    while (p < v) p *= 2;
-    return p;
-  }
-  return (v + multiple - 1) / multiple * multiple;
-}
 
 class ShelfPacker final : public Packer {
  public:
@@ -42,8 +34,10 @@ class ShelfPacker final : public Packer {
     const Atlas& a = ctx.atlas;
     const int gutter = static_cast<int>(options().get_int("gutter"));
     const int max_size = static_cast<int>(options().get_int("max_page_size"));
-    const int multiple = static_cast<int>(options().get_int("page_multiple"));
-    const bool pow2 = options().get_bool("power_of_two");
+    packing::CommonSettings sizing;  // only the page-sizing fields; shelf never rotates
+    sizing.max_page_size = max_size;
+    sizing.page_multiple = static_cast<int>(options().get_int("page_multiple"));
+    sizing.power_of_two = options().get_bool("power_of_two");
     const size_t nc = static_cast<size_t>(a.num_charts);
 
     // Whole-texel bounding boxes.
@@ -108,7 +102,7 @@ class ShelfPacker final : public Packer {
       shelf_h = std::max(shelf_h, s.y());
     }
     for (const auto& u : used)
-      L.pages.push_back({std::min(max_size, round_up(u.x(), multiple, pow2)), std::min(max_size, round_up(u.y(), multiple, pow2))});
+      L.pages.push_back({packing::round_page_side(u.x(), sizing), packing::round_page_side(u.y(), sizing)});
     L.wedge_uv = a.wedge_uv;
     std::vector<uint8_t> moved(a.wedge_uv.size(), 0);
     for (size_t f = 0; f < a.face_chart.size(); ++f) {

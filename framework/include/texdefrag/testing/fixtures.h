@@ -24,10 +24,6 @@ std::string temp_dir(const std::string& suffix = "");
 /// Writes a solid-colour or gradient RGB PNG of the given size (for hand-built meshes' pages).
 void write_test_image(const std::string& path, int width, int height, bool gradient = true);
 
-/// Writes an RGB PNG of smooth content (sums of sinusoids with the given period in texels), closer
-/// to photographs than write_test_image's checkerboard: resampling it costs little, copying nothing.
-void write_smooth_test_image(const std::string& path, int width, int height, double period = 24.0);
-
 /// Renders page `page` of `mesh` (size from mesh.pages) as a photogrammetry tool would: every
 /// texel inside a face's UV triangle, and within `padding` texels around it, gets the colour of a
 /// smooth function of the 3D point it maps to (period `period_3d` model units). So the texture is
