@@ -124,7 +124,14 @@ struct ChartInfo {
   double planarity = 0; ///< cached index for the current version
   Moments mom;
   std::vector<int> faces;
-  std::vector<std::pair<int, int>> boundary;           ///< (face, local edge)
+  /// Boundary edges (face, local edge) in the order they became part of this chart; entries whose
+  /// edge is no longer a boundary edge (ebnd_ == 0) are tombstones, compacted in order when they
+  /// outnumber the live ones (the M-method's border sum adds the live entries in this order).
+  std::vector<std::pair<int, int>> boundary;
+  size_t boundary_dead = 0;
+  /// Its live boundary segments (current positions), uniform hash grid: cell -> edge ids 3f+k.
+  std::unordered_map<long long, std::vector<int>> seg_cells;
+  std::vector<int> seg_big;  ///< segments spanning more than kMaxTriCells cells (always tested)
   std::unordered_map<int, std::vector<int>> adj;       ///< neighbour chart -> seam edge ids
   /// Its triangles with input UV area > 0 (current positions), uniform hash grid: cell -> faces.
   std::unordered_map<long long, std::vector<int>> tri_cells;
@@ -250,6 +257,14 @@ class Engine {
   }
   void grid_insert(int c, int f);
   void grid_remove(int f);
+  // ---- per-chart boundary-segment grids (same cells as the triangle grids); edge id e = 3f + k
+  std::vector<char> ebnd_;                  ///< edge e is a live boundary edge of chart(f)
+  std::vector<int> eowner_;                 ///< chart whose segment grid holds edge e (-1: none)
+  std::vector<std::array<int, 4>> ecells_;  ///< cell range it was inserted with
+  std::vector<int> edead_, emoved_, eseen_; ///< per-move stamps (epoch_, seen_stamp_)
+  void seg_insert(int c, int e);
+  void seg_remove(int e);
+  void compact_boundary(ChartInfo& ch);
   std::vector<std::pair<int, Vec2>> saved_uv_;
   std::vector<std::pair<int, std::array<int, 3>>> saved_fw_;
   int saved_small_ = -1;
@@ -319,6 +334,7 @@ void Engine::setup() {
   int nregions = 1;
   for (int r : region_) nregions = std::max(nregions, r + 1);
   std::vector<Moments> rmom(static_cast<size_t>(nregions));
+  ebnd_.assign(3 * nf, 0);
   std::vector<std::map<int, int>> votes(static_cast<size_t>(nc));
   for (size_t f = 0; f < nf; ++f) {
     const int c = at_.face_chart[f];
@@ -342,6 +358,7 @@ void Engine::setup() {
       if (is_boundary(static_cast<int>(f), k, c)) {
         ch.boundary.emplace_back(static_cast<int>(f), k);
         ch.border += edge_uv_len(static_cast<int>(f), k);
+        ebnd_[3 * f + static_cast<size_t>(k)] = 1;
       }
   }
   region_normal_.assign(static_cast<size_t>(nregions), Vec3::Zero());
@@ -417,6 +434,13 @@ void Engine::setup() {
   }
   for (size_t f = 0; f < nf; ++f)
     if (rest_w_[f] > 0 && at_.face_chart[f] >= 0) grid_insert(at_.face_chart[f], static_cast<int>(f));
+  eowner_.assign(3 * nf, -1);
+  ecells_.assign(3 * nf, {1, 1, 0, 0});
+  edead_.assign(3 * nf, 0);
+  emoved_.assign(3 * nf, 0);
+  eseen_.assign(3 * nf, 0);
+  for (int c = 0; c < nc; ++c)
+    for (const auto& [f, k] : C(c).boundary) seg_insert(c, 3 * f + k);
 }
 
 Mat2 Engine::jacobian(int f) const {
@@ -580,6 +604,55 @@ void Engine::grid_insert(int c, int f) {
   }
   for (int y = r[1]; y <= r[3]; ++y)
     for (int x = r[0]; x <= r[2]; ++x) ch.tri_cells[cell_key(x, y)].push_back(f);
+}
+
+void Engine::seg_insert(int c, int e) {
+  ChartInfo& ch = C(c);
+  const Vec2& a = uv(wedge(e / 3, e % 3));
+  const Vec2& b = uv(wedge(e / 3, (e % 3 + 1) % 3));
+  std::array<int, 4>& r = ecells_[static_cast<size_t>(e)];
+  r = {cell_of(std::min(a.x(), b.x())), cell_of(std::min(a.y(), b.y())), cell_of(std::max(a.x(), b.x())),
+       cell_of(std::max(a.y(), b.y()))};
+  eowner_[static_cast<size_t>(e)] = c;
+  if (static_cast<long long>(r[2] - r[0] + 1) * (r[3] - r[1] + 1) > kMaxTriCells) {
+    r = {1, 1, 0, 0};  // empty range: lives in seg_big
+    ch.seg_big.push_back(e);
+    return;
+  }
+  for (int y = r[1]; y <= r[3]; ++y)
+    for (int x = r[0]; x <= r[2]; ++x) ch.seg_cells[cell_key(x, y)].push_back(e);
+}
+
+void Engine::seg_remove(int e) {
+  const int c = eowner_[static_cast<size_t>(e)];
+  if (c < 0) return;
+  ChartInfo& ch = C(c);
+  const std::array<int, 4>& r = ecells_[static_cast<size_t>(e)];
+  auto drop = [e](std::vector<int>& v) {
+    auto it = std::find(v.begin(), v.end(), e);
+    if (it != v.end()) {
+      *it = v.back();
+      v.pop_back();
+    }
+  };
+  if (r[0] > r[2]) drop(ch.seg_big);
+  for (int y = r[1]; y <= r[3]; ++y)
+    for (int x = r[0]; x <= r[2]; ++x) {
+      auto it = ch.seg_cells.find(cell_key(x, y));
+      if (it == ch.seg_cells.end()) continue;
+      drop(it->second);
+      if (it->second.empty()) ch.seg_cells.erase(it);
+    }
+  eowner_[static_cast<size_t>(e)] = -1;
+}
+
+void Engine::compact_boundary(ChartInfo& ch) {
+  if (2 * ch.boundary_dead <= ch.boundary.size()) return;
+  size_t n = 0;
+  for (const auto& fk : ch.boundary)
+    if (ebnd_[3 * static_cast<size_t>(fk.first) + static_cast<size_t>(fk.second)]) ch.boundary[n++] = fk;
+  ch.boundary.resize(n);
+  ch.boundary_dead = 0;
 }
 
 void Engine::grid_remove(int f) {
@@ -879,27 +952,84 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
         return false;
       }
     }
-  // Self-overlap of the merged chart: moved boundary segments against all its boundary segments.
-  std::vector<std::pair<int, int>> boundary;
-  boundary.reserve(Bg.boundary.size() + Sm.boundary.size());
-  for (const auto* list : {&Bg.boundary, &Sm.boundary})
-    for (const auto& fk : *list)
-      if ((wrep_[static_cast<size_t>(wedge(fk.first, fk.second))] != epoch_ &&
-           wrep_[static_cast<size_t>(wedge(fk.first, (fk.second + 1) % 3))] != epoch_) ||
-          is_boundary(fk.first, fk.second, big))
-        boundary.push_back(fk);
+  // Self-overlap of the merged chart: its moved boundary segments against its other boundary
+  // segments. Only edges with a welded (representative) wedge can stop being boundary edges; only
+  // edges of the smaller chart and of the changed faces can have moved. The other segments come from
+  // the bigger chart's segment grid, queried with the moved segments' boxes, so the test costs
+  // O(moved segments + segments near them), not O(boundary).
+  std::vector<int> dead;        // live boundary edges the weld made interior (applied on accept)
+  std::vector<int> moved_ids;   // live boundary edges with a moved wedge
+  auto consider = [&](int f) {
+    for (int k = 0; k < 3; ++k) {
+      const int e = 3 * f + k;
+      if (!ebnd_[static_cast<size_t>(e)] || emoved_[static_cast<size_t>(e)] == epoch_ ||
+          edead_[static_cast<size_t>(e)] == epoch_)
+        continue;
+      const int w0 = wedge(f, k), w1 = wedge(f, (k + 1) % 3);
+      if ((wrep_[static_cast<size_t>(w0)] == epoch_ || wrep_[static_cast<size_t>(w1)] == epoch_) &&
+          !is_boundary(f, k, big)) {
+        edead_[static_cast<size_t>(e)] = epoch_;
+        dead.push_back(e);
+        continue;
+      }
+      if (wmoved_[static_cast<size_t>(w0)] == epoch_ || wmoved_[static_cast<size_t>(w1)] == epoch_) {
+        emoved_[static_cast<size_t>(e)] = epoch_;
+        moved_ids.push_back(e);
+      }
+    }
+  };
+  for (const auto& fk : Sm.boundary)
+    if (ebnd_[3 * static_cast<size_t>(fk.first) + static_cast<size_t>(fk.second)]) consider(fk.first);
+  for (int f : changed) consider(f);
+  for (int r : reps) faces_of_wedge(r, big, [&](int f, int) { consider(f); });
   std::vector<Segment> all, moved;
-  all.reserve(boundary.size());
-  for (const auto& [f, k] : boundary) {
-    Segment s;
-    s.w0 = wedge(f, k);
-    s.w1 = wedge(f, (k + 1) % 3);
-    s.a = uv(s.w0);
-    s.b = uv(s.w1);
-    if (wmoved_[static_cast<size_t>(s.w0)] == epoch_ || wmoved_[static_cast<size_t>(s.w1)] == epoch_)
-      moved.push_back(s);
-    else
-      all.push_back(s);
+  auto segment = [&](int e) {
+    Segment sg;
+    sg.w0 = wedge(e / 3, e % 3);
+    sg.w1 = wedge(e / 3, (e % 3 + 1) % 3);
+    sg.a = uv(sg.w0);
+    sg.b = uv(sg.w1);
+    return sg;
+  };
+  moved.reserve(moved_ids.size());
+  for (int e : moved_ids) moved.push_back(segment(e));
+  {
+    ++seen_stamp_;
+    auto visit = [&](int e) {
+      if (eseen_[static_cast<size_t>(e)] == seen_stamp_) return;
+      eseen_[static_cast<size_t>(e)] = seen_stamp_;
+      if (!ebnd_[static_cast<size_t>(e)] || emoved_[static_cast<size_t>(e)] == epoch_ ||
+          edead_[static_cast<size_t>(e)] == epoch_)
+        return;
+      all.push_back(segment(e));
+    };
+    // The smaller chart's unmoved segments (none after a rigid alignment, kept for safety).
+    for (const auto& [f, k] : Sm.boundary) visit(3 * f + k);
+    if (!moved.empty()) {
+      std::vector<std::array<int, 4>> qr;
+      qr.reserve(moved.size());
+      double ncells = 0;
+      for (const Segment& sg : moved) {
+        const Vec2 lo = sg.a.cwiseMin(sg.b), hi = sg.a.cwiseMax(sg.b);
+        const double margin = 1e-6 * (sg.b - sg.a).norm() + 1e-4 * tri_cell_;
+        qr.push_back({cell_of(lo.x() - margin), cell_of(lo.y() - margin), cell_of(hi.x() + margin),
+                      cell_of(hi.y() + margin)});
+        const std::array<int, 4>& r = qr.back();
+        ncells += (static_cast<double>(r[2]) - r[0] + 1) * (static_cast<double>(r[3]) - r[1] + 1);
+      }
+      if (ncells > static_cast<double>(Bg.boundary.size())) {
+        for (const auto& [f, k] : Bg.boundary) visit(3 * f + k);
+      } else {
+        for (int e : Bg.seg_big) visit(e);
+        for (const auto& r : qr)
+          for (int y = r[1]; y <= r[3]; ++y)
+            for (int x = r[0]; x <= r[2]; ++x) {
+              auto it = Bg.seg_cells.find(cell_key(x, y));
+              if (it == Bg.seg_cells.end()) continue;
+              for (int e : it->second) visit(e);
+            }
+      }
+    }
   }
   if (any_crossing(moved, all)) {
     reason = "overlap";
@@ -1006,11 +1136,35 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
   Bg.faces.insert(Bg.faces.end(), Sm.faces.begin(), Sm.faces.end());
   Sm.faces.clear();
   Sm.faces.shrink_to_fit();
-  Bg.boundary.swap(boundary);
+  // Boundary: the weld's interior edges die; moved segments are re-gridded; the smaller chart's
+  // live edges are appended in their order.
+  for (int e : dead) {
+    if (eowner_[static_cast<size_t>(e)] == big) ++Bg.boundary_dead;  // a tombstone in Bg.boundary
+    ebnd_[static_cast<size_t>(e)] = 0;
+    seg_remove(e);
+  }
+  for (int e : moved_ids) {
+    seg_remove(e);
+    seg_insert(big, e);
+  }
+  for (const auto& [f, k] : Sm.boundary) {
+    const int e = 3 * f + k;
+    if (!ebnd_[static_cast<size_t>(e)]) continue;
+    if (eowner_[static_cast<size_t>(e)] != big) {
+      seg_remove(e);
+      seg_insert(big, e);
+    }
+    Bg.boundary.emplace_back(f, k);
+  }
   Sm.boundary.clear();
+  Sm.boundary_dead = 0;
+  Sm.seg_cells.clear();
+  Sm.seg_big.clear();
+  compact_boundary(Bg);
   if (opt_.priority == Priority::MMethod) {  // the border length is used by its cost only
     Bg.border = 0;
-    for (const auto& [f, k] : Bg.boundary) Bg.border += edge_uv_len(f, k);
+    for (const auto& [f, k] : Bg.boundary)
+      if (ebnd_[3 * static_cast<size_t>(f) + static_cast<size_t>(k)]) Bg.border += edge_uv_len(f, k);
   }
   Bg.mom.add(Sm.mom);
   Bg.self_overlap = Bg.self_overlap || Sm.self_overlap;
@@ -1088,7 +1242,8 @@ void Engine::start_second_pass(double local_bound) {
   for (ChartInfo& ch : charts_) {
     if (!ch.alive) continue;
     ch.border = 0;
-    for (const auto& [f, k] : ch.boundary) ch.border += edge_uv_len(f, k);
+    for (const auto& [f, k] : ch.boundary)
+      if (ebnd_[3 * static_cast<size_t>(f) + static_cast<size_t>(k)]) ch.border += edge_uv_len(f, k);
   }
   // Every adjacent pair is queued again under the new order (pairs that used up max_attempts stay out).
   for (auto& [key, ps] : pairs_) {
