@@ -1,6 +1,9 @@
 // mergers.arap: seam merging with the M-method's local/global ARAP optimiser (Maggiordomo et al.
-// 2021) on the shared merge engine; with priority = "mmethod" it is our M-method baseline.
+// 2021) on the shared merge engine; with priority = "mmethod" it is our M-method baseline. The
+// `solver` option picks the minimiser of the same ARAP energy: the prefactored Eigen local/global
+// solver (engine/arap_solver.h) or Levenberg-Marquardt on Ceres (ceres_arap_solver.h).
 #include "arap_solver.h"
+#include "ceres_arap_solver.h"
 #include "merge_engine.h"
 
 #include "texdefrag/stage/registry.h"
@@ -15,22 +18,38 @@ class ArapMerger final : public Merger {
     i.name = "mergers.arap";
     i.kind = StageKind::Merger;
     i.description =
-        "Merges charts seam by seam; local/global ARAP of the seam's neighbourhood against the input UV "
-        "triangles (Maggiordomo et al. 2021), rollback on distortion, flips or overlaps";
+        "Merges charts seam by seam; ARAP of the seam's neighbourhood against the input UV triangles "
+        "(Maggiordomo et al. 2021; local/global on Eigen or Levenberg-Marquardt on Ceres), rollback on "
+        "distortion, flips or overlaps";
     i.doc = "docs/mergers.md";
     i.options = merge::merge_option_specs();
-    i.options.push_back(opt_int("arap_iterations", 10, "Local/global ARAP iterations per merge").range(1, 1000));
+    i.options.push_back(opt_enum("solver", "eigen", {"eigen", "ceres"},
+                                 "ARAP minimiser: eigen = local/global, matrix factorised once per merge; ceres = "
+                                 "Levenberg-Marquardt, sparse normal Cholesky every iteration"));
+    i.options.push_back(
+        opt_int("arap_iterations", 10, "ARAP iterations per merge (local/global steps, or Ceres LM steps)").range(1, 1000));
     i.options.push_back(
         opt_double("arap_tolerance", 1e-6, "Stop when the ARAP energy drops by less than this fraction").range(0, 1));
     i.create = [] { return std::make_unique<ArapMerger>(); };
     return i;
   }
   void merge(StageContext& ctx) override {
-    merge::ArapSettings s;
-    s.iterations = static_cast<int>(options().get_int("arap_iterations"));
-    s.tolerance = options().get_double("arap_tolerance");
-    merge::ArapSolver solver(s);
-    merge::run_merge_stage(ctx, info().name, merge::merge_options_from(options()), solver);
+    const int iterations = static_cast<int>(options().get_int("arap_iterations"));
+    const double tolerance = options().get_double("arap_tolerance");
+    const merge::MergeOptions mo = merge::merge_options_from(options());
+    if (options().get_string("solver") == "ceres") {
+      merge::CeresArapSettings s;
+      s.iterations = iterations;
+      s.tolerance = tolerance;
+      merge::CeresArapSolver solver(s);
+      merge::run_merge_stage(ctx, info().name, mo, solver);
+    } else {
+      merge::ArapSettings s;
+      s.iterations = iterations;
+      s.tolerance = tolerance;
+      merge::ArapSolver solver(s);
+      merge::run_merge_stage(ctx, info().name, mo, solver);
+    }
   }
 };
 

@@ -1,33 +1,242 @@
-// mergers.arap (the M-method's optimiser), created by name, on hand-built meshes.
+// mergers.arap (the M-method's optimiser): both ARAP solvers (Eigen local/global, Ceres LM) on
+// hand-checkable local problems, then the stage created by name on hand-built meshes with each.
+#include "arap_solver.h"
+#include "ceres_arap_solver.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <memory>
 #include <set>
 
 namespace texdefrag::merge {
 namespace {
 
-TEST(Arap, FragmentedGridMergesIntoOneChart) {
+// ---- the solvers on local problems ----------------------------------------------------------
+
+/// A solver by name with the given iteration cap and tolerance.
+std::unique_ptr<LocalSolver> make_solver(const std::string& name, int iterations, double tolerance) {
+  if (name == "ceres") {
+    CeresArapSettings s;
+    s.iterations = iterations;
+    s.tolerance = tolerance;
+    return std::make_unique<CeresArapSolver>(s);
+  }
+  ArapSettings s;
+  s.iterations = iterations;
+  s.tolerance = tolerance;
+  return std::make_unique<ArapSolver>(s);
+}
+
+/// Sets p's rest shapes (rest_inv, weight = rest area) from rest positions (indexed like p.x).
+void set_rest(LocalProblem& p, const std::vector<Vec2>& rest) {
+  p.rest_inv.clear();
+  p.weight.clear();
+  for (const auto& t : p.tri) {
+    Mat2 Dm;
+    Dm.col(0) = rest[static_cast<size_t>(t[1])] - rest[static_cast<size_t>(t[0])];
+    Dm.col(1) = rest[static_cast<size_t>(t[2])] - rest[static_cast<size_t>(t[0])];
+    p.rest_inv.push_back(Dm.inverse());
+    p.weight.push_back(0.5 * Dm.determinant());
+  }
+}
+
+/// An n-by-n vertex grid, spacing 10 texels, jittered by up to 2 texels (fixed formula), 2 CCW
+/// triangles per cell; interior vertices free (first in x), boundary ones pinned. `rest` receives
+/// the rest positions; x is left equal to them.
+LocalProblem jittered_grid(int n, std::vector<Vec2>& rest) {
+  LocalProblem p;
+  std::vector<int> id(static_cast<size_t>(n * n));
+  auto interior = [n](int i, int j) { return i > 0 && j > 0 && i < n - 1 && j < n - 1; };
+  auto pos = [](int i, int j) {
+    return Vec2(10.0 * i + 2.0 * std::sin(12.9898 * i + 78.233 * j), 10.0 * j + 2.0 * std::cos(39.346 * i + 11.135 * j));
+  };
+  for (int pass = 0; pass < 2; ++pass)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        if (interior(i, j) == (pass == 0)) {
+          id[static_cast<size_t>(j * n + i)] = static_cast<int>(p.x.size());
+          p.x.push_back(pos(i, j));
+        }
+  p.num_free = (n - 2) * (n - 2);
+  for (int j = 0; j + 1 < n; ++j)
+    for (int i = 0; i + 1 < n; ++i) {
+      const int a = id[static_cast<size_t>(j * n + i)], b = id[static_cast<size_t>(j * n + i + 1)];
+      const int c = id[static_cast<size_t>((j + 1) * n + i + 1)], d = id[static_cast<size_t>((j + 1) * n + i)];
+      p.tri.push_back({a, b, c});
+      p.tri.push_back({a, c, d});
+    }
+  rest = p.x;
+  set_rest(p, rest);
+  return p;
+}
+
+TEST(ArapResidual, JacobianMatchesFiniteDifferences) {
+  for (const Mat2& F : {Mat2{{1.2, 0.3}, {-0.4, 0.9}}, Mat2{{0.2, -1.1}, {0.8, 0.1}}, Mat2{{-0.7, 0.2}, {0.1, 0.5}},
+                        Mat2{{1.0, 0.0}, {0.0, 1.0}}}) {
+    Eigen::Vector4d r;
+    Eigen::Matrix4d J;
+    arap_residual(F, r, J);
+    const Mat2 R = closest_rotation(F);
+    EXPECT_NEAR(r[1], F(0, 1) - R(0, 1), 1e-15);
+    EXPECT_NEAR(r.squaredNorm(), (F - R).squaredNorm(), 1e-14);
+    const double h = 1e-6;
+    for (int c = 0; c < 4; ++c) {
+      Mat2 Fp = F, Fm = F;
+      Fp(c / 2, c % 2) += h;
+      Fm(c / 2, c % 2) -= h;
+      Eigen::Vector4d rp, rm;
+      Eigen::Matrix4d unused;
+      arap_residual(Fp, rp, unused);
+      arap_residual(Fm, rm, unused);
+      const Eigen::Vector4d fd = (rp - rm) / (2 * h);
+      for (int i = 0; i < 4; ++i) EXPECT_NEAR(J(i, c), fd[i], 1e-7) << "F=\n" << F << "\nrow " << i << " col " << c;
+    }
+  }
+}
+
+class ArapSolvers : public ::testing::TestWithParam<std::string> {};
+
+// Rest (0,0), (1,0), (0.5, h); base pinned at (0,0), (s,0). By symmetry F = diag(s, y/h) at the
+// optimum, whose closest rotation is I, so the energy (s-1)^2 + (y/h-1)^2 is least at apex
+// (s/2, h) with energy (s-1)^2.
+TEST_P(ArapSolvers, StretchedBaseTriangleByHand) {
+  const double h = 0.8, s = 1.5;
+  LocalProblem p;
+  p.x = {{0.9, 0.3}, {0, 0}, {s, 0}};  // apex free, displaced
+  p.num_free = 1;
+  p.tri = {{1, 2, 0}};
+  set_rest(p, {{0.5, h}, {0, 0}, {1, 0}});
+  const SolveResult r = make_solver(GetParam(), 200, 1e-15)->solve(p);
+  EXPECT_TRUE(r.ok) << r.failure;
+  EXPECT_NEAR(p.x[0].x(), s / 2, 1e-6);
+  EXPECT_NEAR(p.x[0].y(), h, 1e-6);
+  EXPECT_NEAR(r.energy, (s - 1) * (s - 1), 1e-9);
+  EXPECT_EQ(p.x[1], Vec2(0, 0));
+  EXPECT_EQ(p.x[2], Vec2(s, 0));
+}
+
+// Boundary pinned at 1.1 x its rest positions: F = 1.1 I on every triangle is stationary (the
+// interior vertices' gradient sums of a constant field vanish), so the interior goes to 1.1 x rest
+// and the energy is 2 * 0.1^2 = 0.02 whatever the triangle shapes.
+TEST_P(ArapSolvers, PinnedScaledBoundaryByHand) {
+  std::vector<Vec2> rest;
+  LocalProblem p = jittered_grid(6, rest);
+  for (size_t i = 0; i < p.x.size(); ++i) p.x[i] = 1.1 * rest[i];
+  for (int i = 0; i < p.num_free; ++i) p.x[static_cast<size_t>(i)] += Vec2(1.5 * std::sin(i), 1.5 * std::cos(3 * i));
+  const std::vector<Vec2> start = p.x;
+  const SolveResult r = make_solver(GetParam(), 500, 1e-15)->solve(p);
+  EXPECT_TRUE(r.ok) << r.failure;
+  for (int i = 0; i < p.num_free; ++i) EXPECT_NEAR((p.x[static_cast<size_t>(i)] - 1.1 * rest[static_cast<size_t>(i)]).norm(), 0, 1e-5) << i;
+  for (size_t i = static_cast<size_t>(p.num_free); i < p.x.size(); ++i) EXPECT_EQ(p.x[i], start[i]) << "pinned " << i;
+  EXPECT_NEAR(r.energy, 0.02, 1e-9);
+  EXPECT_NEAR(arap_energy(p), r.energy, 1e-15);
+}
+
+TEST_P(ArapSolvers, RestoresTheRestShape) {
+  std::vector<Vec2> rest;
+  LocalProblem p = jittered_grid(7, rest);
+  for (int i = 0; i < p.num_free; ++i) p.x[static_cast<size_t>(i)] += Vec2(2 * std::cos(5 * i), 2 * std::sin(2 * i));
+  EXPECT_GT(arap_energy(p), 1e-3);
+  const SolveResult r = make_solver(GetParam(), 500, 1e-15)->solve(p);
+  EXPECT_TRUE(r.ok) << r.failure;
+  for (int i = 0; i < p.num_free; ++i) EXPECT_NEAR((p.x[static_cast<size_t>(i)] - rest[static_cast<size_t>(i)]).norm(), 0, 1e-5);
+  EXPECT_LT(r.energy, 1e-12);
+}
+
+TEST_P(ArapSolvers, UntanglesAnInvertedStart) {
+  std::vector<Vec2> rest;
+  LocalProblem p = jittered_grid(4, rest);  // 4 free interior vertices
+  p.x[0] = p.x[3] + Vec2(4, 3);            // first interior vertex pushed past its diagonal neighbour
+  ASSERT_GT(count_inverted(p), 0);
+  const SolveResult r = make_solver(GetParam(), 10, 1e-6)->solve(p);
+  EXPECT_TRUE(r.ok) << r.failure;
+  EXPECT_EQ(count_inverted(p), 0);
+}
+
+// Acceptance: an inverted triangle the solver cannot move is reported, with and without free ones.
+TEST_P(ArapSolvers, ReportsInvertedTrianglesItCannotFix) {
+  std::vector<Vec2> rest;
+  LocalProblem p = jittered_grid(4, rest);
+  // An extra triangle on three pinned corners, given a rest shape of the opposite orientation.
+  const int a = p.num_free, b = p.num_free + 1, c = p.num_free + 2;
+  p.tri.push_back({a, c, b});
+  p.rest_inv.push_back(Mat2::Identity());
+  p.weight.push_back(1);
+  {
+    Mat2 Dm;
+    Dm.col(0) = rest[static_cast<size_t>(b)] - rest[static_cast<size_t>(a)];
+    Dm.col(1) = rest[static_cast<size_t>(c)] - rest[static_cast<size_t>(a)];
+    p.rest_inv.back() = Dm.inverse();  // rest = (a, b, c) CCW, current corners (a, c, b): inverted
+  }
+  ASSERT_EQ(count_inverted(p), 1);
+  LocalProblem q = p;
+  SolveResult r = make_solver(GetParam(), 10, 1e-6)->solve(p);
+  EXPECT_FALSE(r.ok);
+  EXPECT_FALSE(r.failure.empty());
+  q.num_free = 0;
+  const std::vector<Vec2> start = q.x;
+  r = make_solver(GetParam(), 10, 1e-6)->solve(q);
+  EXPECT_FALSE(r.ok);
+  EXPECT_FALSE(r.failure.empty());
+  EXPECT_EQ(q.x, start);  // nothing free: nothing moved
+}
+
+INSTANTIATE_TEST_SUITE_P(Both, ArapSolvers, ::testing::Values("eigen", "ceres"),
+                         [](const ::testing::TestParamInfo<std::string>& i) { return i.param; });
+
+// Both solvers reach the same minimum of the same energy on a bent, jittered patch.
+TEST(ArapSolversAgree, SameMinimumOnABentPatch) {
+  std::vector<Vec2> rest;
+  LocalProblem p = jittered_grid(8, rest);
+  // Pinned boundary (and interior start) under a smooth non-rigid map.
+  for (size_t i = 0; i < p.x.size(); ++i) {
+    const Vec2 q = rest[i];
+    p.x[i] = Vec2(1.05 * q.x() + 0.004 * q.y() * q.y(), 0.93 * q.y() + 0.08 * q.x() + 3 * std::sin(q.x() / 20));
+  }
+  LocalProblem pe = p, pc = p;
+  const SolveResult re = make_solver("eigen", 1000, 1e-15)->solve(pe);
+  const SolveResult rc = make_solver("ceres", 1000, 1e-15)->solve(pc);
+  ASSERT_TRUE(re.ok && rc.ok);
+  EXPECT_GT(re.energy, 1e-4);  // not a trivial minimum
+  EXPECT_NEAR(re.energy, rc.energy, 1e-9 * re.energy);
+  for (int i = 0; i < p.num_free; ++i)
+    EXPECT_NEAR((pe.x[static_cast<size_t>(i)] - pc.x[static_cast<size_t>(i)]).norm(), 0, 1e-4) << i;
+  // Ceres' Gauss-Newton steps use the rotation's derivative: it needs far fewer iterations.
+  EXPECT_LT(rc.iterations, re.iterations);
+}
+
+// ---- the stage, created by name, with each solver ------------------------------------------
+
+class Arap : public ::testing::TestWithParam<std::string> {
+ protected:
+  json with_solver(json o = json::object()) const {
+    o["solver"] = GetParam();
+    return o;
+  }
+};
+
+TEST_P(Arap, FragmentedGridMergesIntoOneChart) {
   test::Run run(texdefrag::testing::fragmented_grid_mesh(8, 6, 1024, "unused.png"));
-  run.merge("mergers.arap");
+  run.merge("mergers.arap", with_solver());
   EXPECT_EQ(run.ctx.atlas.num_charts, 1);
   EXPECT_LT(run.report["distortion_out"].get<double>(), 1e-10);
   test::expect_valid_atlas(run);
 }
 
-TEST(Arap, MMethodPriorityMergesTheGridToo) {
+TEST_P(Arap, MMethodPriorityMergesTheGridToo) {
   test::Run run(texdefrag::testing::fragmented_grid_mesh(8, 6, 1024, "unused.png"));
-  run.merge("mergers.arap", {{"priority", "mmethod"}});
+  run.merge("mergers.arap", with_solver({{"priority", "mmethod"}}));
   EXPECT_EQ(run.ctx.atlas.num_charts, 1);
   test::expect_valid_atlas(run);
 }
 
-TEST(Arap, NeverMergesAcrossRegions) {
+TEST_P(Arap, NeverMergesAcrossRegions) {
   std::vector<int> region;
   TexturedMesh m = test::folded_grid(6, 4, region);
   test::Run run(std::move(m), region);
-  run.merge("mergers.arap", {{"priority", "mmethod"}});
+  run.merge("mergers.arap", with_solver({{"priority", "mmethod"}}));
   std::vector<std::set<int>> regions_of(static_cast<size_t>(run.ctx.atlas.num_charts));
   for (size_t f = 0; f < run.mesh.faces.size(); ++f)
     regions_of[static_cast<size_t>(run.ctx.atlas.face_chart[f])].insert(run.ctx.regions.face_region[f]);
@@ -38,10 +247,10 @@ TEST(Arap, NeverMergesAcrossRegions) {
   EXPECT_LE(run.ctx.atlas.num_charts, 4) << run.report.dump();
 }
 
-TEST(Arap, LocalBoundRejectsAndRollsBack) {
+TEST_P(Arap, LocalBoundRejectsAndRollsBack) {
   test::Run run(test::distorted_fragmented_grid(5, 4, 0.1));
   const Atlas before = run.ctx.atlas;
-  run.merge("mergers.arap", {{"local_bound", 0.0}});
+  run.merge("mergers.arap", with_solver({{"local_bound", 0.0}}));
   EXPECT_EQ(run.report["merges_accepted"], 0);
   EXPECT_GT(run.report["rejected"].value("local_distortion", 0), 0);
   EXPECT_EQ(run.ctx.atlas.face_wedge, before.face_wedge);
@@ -49,12 +258,35 @@ TEST(Arap, LocalBoundRejectsAndRollsBack) {
   EXPECT_EQ(run.ctx.atlas.face_chart, before.face_chart);
 }
 
-TEST(Arap, DistortedInputStaysWithinTheBound) {
+TEST_P(Arap, DistortedInputStaysWithinTheBound) {
   test::Run run(test::distorted_fragmented_grid(10, 8, 0.05));
-  run.merge("mergers.arap", {{"priority", "mmethod"}});
+  run.merge("mergers.arap", with_solver({{"priority", "mmethod"}}));
   EXPECT_LE(run.report["distortion_out"].get<double>(), 0.025);
   EXPECT_LT(run.ctx.atlas.num_charts, 160);
+  EXPECT_GT(run.report["optimisation_seconds"].get<double>(), 0);
   test::expect_valid_atlas(run);
+}
+
+INSTANTIATE_TEST_SUITE_P(Solver, Arap, ::testing::Values("eigen", "ceres"),
+                         [](const ::testing::TestParamInfo<std::string>& i) { return i.param; });
+
+TEST(ArapOptions, SolverIsAValidatedEnum) {
+  Registry& r = Registry::instance();
+  r.load_plugins();
+  const StageInfo* info = r.find("mergers.arap");
+  ASSERT_NE(info, nullptr);
+  const OptionSpec* spec = nullptr;
+  for (const OptionSpec& o : info->options)
+    if (o.key == "solver") spec = &o;
+  ASSERT_NE(spec, nullptr);
+  EXPECT_EQ(spec->type, OptionType::Enum);
+  EXPECT_EQ(spec->choices, (std::vector<std::string>{"eigen", "ceres"}));
+  EXPECT_EQ(default_options(*info, {{"solver", "ceres"}}).get_string("solver"), "ceres");
+  EXPECT_EQ(default_options(*info, {{"solver", "eigen"}}).get_string("solver"), "eigen");
+  EXPECT_THROW(default_options(*info, {{"solver", "cholmod"}}), std::invalid_argument);
+  EXPECT_THROW(default_options(*info, {{"solver", "Ceres"}}), std::invalid_argument);
+  EXPECT_THROW(default_options(*info, {{"solver", 1}}), std::invalid_argument);
+  EXPECT_THROW(default_options(*info, {{"arap_iterations", 0}}), std::invalid_argument);
 }
 
 }  // namespace
