@@ -118,7 +118,8 @@ SolveResult CeresArapSolver::solve(LocalProblem& p) {
         blocks);
   }
   ceres::Solver::Options o;
-  o.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  o.linear_solver_type = s_.linear_solver == CeresLinearSolver::SparseNormalCholesky ? ceres::SPARSE_NORMAL_CHOLESKY
+                                                                                    : ceres::DENSE_NORMAL_CHOLESKY;
   o.sparse_linear_algebra_library_type = s_.sparse_library == CeresSparseLibrary::SuiteSparse
                                              ? ceres::SUITE_SPARSE
                                              : ceres::EIGEN_SPARSE;

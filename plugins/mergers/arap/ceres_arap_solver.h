@@ -17,10 +17,17 @@ enum class CeresSparseLibrary {
   EigenSparse,  ///< Eigen's SimplicialLDLT
 };
 
+/// Ceres linear solver for the LM steps' normal equations.
+enum class CeresLinearSolver {
+  SparseNormalCholesky,  ///< SPARSE_NORMAL_CHOLESKY with sparse_library
+  DenseNormalCholesky,   ///< DENSE_NORMAL_CHOLESKY (Eigen LLT): no symbolic analysis, O(n^3)
+};
+
 struct CeresArapSettings {
   int iterations = 10;      ///< Levenberg-Marquardt iterations (each one refactorises), >= 1
   double tolerance = 1e-6;  ///< stop when the energy drops by less than this fraction (function_tolerance), >= 0
-  CeresSparseLibrary sparse_library = CeresSparseLibrary::SuiteSparse;  ///< linear algebra back end
+  CeresLinearSolver linear_solver = CeresLinearSolver::SparseNormalCholesky;  ///< normal-equation solver
+  CeresSparseLibrary sparse_library = CeresSparseLibrary::SuiteSparse;  ///< back end of the sparse one
 };
 
 /// ARAP LocalSolver on Ceres. Stateless between problems; single-threaded.

@@ -1,0 +1,175 @@
+// Benchmark: mergers.arap's two ARAP solvers (Eigen local/global prefactored once per problem, Ceres
+// Levenberg-Marquardt with sparse normal Cholesky) on
+// - the local problems a real merge run hands to its solver (recorded once from an M-method run
+//   with the Eigen solver on t015_L18, then each solver solves copies of the same problems), split
+//   by free-region size;
+// - whole real tiles (the engine with each solver, M-method order, defaults).
+// Run: bench_mergers_arap [--benchmark_filter=...]. Real data absent: the cases skip with an error.
+#include "arap_solver.h"
+#include "ceres_arap_solver.h"
+#include "merge_engine.h"
+
+#include "texdefrag/core/charts.h"
+#include "texdefrag/core/topology.h"
+#include "texdefrag/io/obj.h"
+#include "texdefrag/testing/fixtures.h"
+
+#include <benchmark/benchmark.h>
+
+#include <ctime>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace texdefrag::merge {
+namespace {
+
+/// Passes problems on to another solver, keeping a copy of each as it was handed over.
+class RecordingSolver final : public LocalSolver {
+ public:
+  explicit RecordingSolver(LocalSolver& inner) : inner_(inner) {}
+  SolveResult solve(LocalProblem& p) override {
+    problems.push_back(p);
+    return inner_.solve(p);
+  }
+  std::vector<LocalProblem> problems;
+
+ private:
+  LocalSolver& inner_;
+};
+
+const TexturedMesh& tile(const std::string& rel) {
+  static std::map<std::string, TexturedMesh> cache;
+  auto it = cache.find(rel);
+  if (it == cache.end()) {
+    const std::string p = texdefrag::testing::shared_data(rel);
+    it = cache.emplace(rel, p.empty() ? TexturedMesh{} : read_obj(p)).first;
+  }
+  return it->second;
+}
+const char* const kT015 = "contextcapture/prod5_t015_L18/t015_L18.obj";
+const char* const kT016L19 = "contextcapture/prod5_t016_L19/t016_L19.obj";
+
+/// The local problems of an M-method run (Eigen solver) on t015_L18, in the order they were posed.
+const std::vector<LocalProblem>& recorded_problems() {
+  static const std::vector<LocalProblem> probs = [] {
+    const TexturedMesh& m = tile(kT015);
+    if (m.faces.empty()) return std::vector<LocalProblem>{};
+    const Topology topo = build_topology(m);
+    Atlas at = build_charts(m, topo).atlas;
+    ArapSolver eigen;
+    RecordingSolver rec(eigen);
+    MergeOptions o;
+    o.priority = Priority::MMethod;
+    run_merges(m, topo, at, {}, o, rec, {});
+    return std::move(rec.problems);
+  }();
+  return probs;
+}
+
+/// Free-region size buckets: [lo, hi) free positions.
+constexpr int kBucket[][2] = {{1, 1000000000}, {1, 5}, {5, 20}, {20, 1000000000}};
+
+template <class Make>
+void solve_recorded(benchmark::State& state, Make make) {
+  const auto& all = recorded_problems();
+  if (all.empty()) return state.SkipWithError("shared data absent (t015_L18)");
+  const int lo = kBucket[state.range(0)][0], hi = kBucket[state.range(0)][1];
+  std::vector<const LocalProblem*> probs;
+  double free_sum = 0;
+  for (const LocalProblem& p : all)
+    if (p.num_free >= lo && p.num_free < hi) {
+      probs.push_back(&p);
+      free_sum += p.num_free;
+    }
+  std::unique_ptr<LocalSolver> solver = make();
+  double energy = 0, iterations = 0, seconds = 0;
+  size_t not_ok = 0, runs = 0;
+  for (auto _ : state) {
+    const std::clock_t t0 = std::clock();
+    energy = 0;
+    iterations = 0;
+    not_ok = 0;
+    for (const LocalProblem* p : probs) {
+      LocalProblem q = *p;
+      const SolveResult r = solver->solve(q);
+      energy += r.energy;
+      iterations += r.iterations;
+      not_ok += r.ok ? 0 : 1;
+    }
+    seconds += static_cast<double>(std::clock() - t0) / CLOCKS_PER_SEC;
+    ++runs;
+  }
+  const double n = static_cast<double>(probs.size());
+  state.counters["problems"] = n;
+  state.counters["mean_free"] = free_sum / n;
+  state.counters["mean_E"] = energy / n;  // mean over problems of the final area-weighted ARAP energy
+  state.counters["mean_iters"] = iterations / n;
+  state.counters["not_ok"] = static_cast<double>(not_ok);
+  state.counters["cpu_us_per_problem"] = 1e6 * seconds / (n * static_cast<double>(runs));
+}
+
+std::unique_ptr<LocalSolver> eigen_solver() { return std::make_unique<ArapSolver>(); }
+std::unique_ptr<LocalSolver> ceres_suitesparse() { return std::make_unique<CeresArapSolver>(); }
+std::unique_ptr<LocalSolver> ceres_eigensparse() {
+  CeresArapSettings s;
+  s.sparse_library = CeresSparseLibrary::EigenSparse;
+  return std::make_unique<CeresArapSolver>(s);
+}
+
+std::unique_ptr<LocalSolver> ceres_dense() {
+  CeresArapSettings s;
+  s.linear_solver = CeresLinearSolver::DenseNormalCholesky;
+  return std::make_unique<CeresArapSolver>(s);
+}
+
+void BM_LocalEigen(benchmark::State& s) { solve_recorded(s, eigen_solver); }
+void BM_LocalCeresDense(benchmark::State& s) { solve_recorded(s, ceres_dense); }
+void BM_LocalCeresSuiteSparse(benchmark::State& s) { solve_recorded(s, ceres_suitesparse); }
+void BM_LocalCeresEigenSparse(benchmark::State& s) { solve_recorded(s, ceres_eigensparse); }
+
+void whole_tile(benchmark::State& state, const char* rel, std::unique_ptr<LocalSolver> (*make)()) {
+  const TexturedMesh& m = tile(rel);
+  if (m.faces.empty()) return state.SkipWithError("shared data absent");
+  const Topology topo = build_topology(m);
+  const ChartSet cs = build_charts(m, topo);
+  MergeReport r;
+  for (auto _ : state) {
+    Atlas at = cs.atlas;
+    std::unique_ptr<LocalSolver> solver = make();
+    MergeOptions o;
+    o.priority = Priority::MMethod;
+    r = run_merges(m, topo, at, {}, o, *solver, {});
+    benchmark::DoNotOptimize(at.num_charts);
+  }
+  state.counters["faces"] = static_cast<double>(m.faces.size());
+  state.counters["charts_in"] = static_cast<double>(r.charts_in);
+  state.counters["charts_out"] = static_cast<double>(r.charts_out);
+  state.counters["accepted"] = static_cast<double>(r.accepted);
+  state.counters["attempted"] = static_cast<double>(r.attempted);
+  state.counters["E"] = r.distortion_out;
+  state.counters["opt_s"] = r.optimisation_seconds;
+  state.counters["check_s"] = r.check_seconds;
+  state.counters["flip_rej"] = static_cast<double>(r.rejected.count("flip") ? r.rejected.at("flip") : 0);
+}
+
+void BM_TileT015Eigen(benchmark::State& s) { whole_tile(s, kT015, eigen_solver); }
+void BM_TileT015Ceres(benchmark::State& s) { whole_tile(s, kT015, ceres_suitesparse); }
+void BM_TileT016L19Eigen(benchmark::State& s) { whole_tile(s, kT016L19, eigen_solver); }
+void BM_TileT016L19Ceres(benchmark::State& s) { whole_tile(s, kT016L19, ceres_suitesparse); }
+
+// Argument = free-region bucket: 0 all, 1 [1, 5), 2 [5, 20), 3 >= 20 free positions.
+BENCHMARK(BM_LocalEigen)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_LocalCeresSuiteSparse)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_LocalCeresEigenSparse)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_LocalCeresDense)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_TileT015Eigen)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_TileT015Ceres)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_TileT016L19Eigen)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_TileT016L19Ceres)->Unit(benchmark::kSecond)->Iterations(1);
+
+}  // namespace
+}  // namespace texdefrag::merge
+
+BENCHMARK_MAIN();
