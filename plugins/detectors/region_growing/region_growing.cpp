@@ -11,7 +11,8 @@
 // units remain. Then: elongated strips are dissolved into their neighbours, small smoothly curved
 // pieces are grouped into one component, small regions join the neighbouring region whose plane they
 // fit (tiny ones the one with more faces), and small regions or clusters enclosed by one region join
-// it whatever their angle (our addition, docs/detectors.md refinement 9).
+// it whatever their angle (our addition, docs/detectors.md refinement 10), after coplanar regions were
+// grouped and speckle lying on their planes joined them (refinement 9).
 #include "common/normals.h"
 #include "common/planarity.h"
 #include "common/region_output.h"
@@ -51,6 +52,14 @@ struct Params {
   bool enclosed = true;
   double enclosed_max_fraction = 0.1;
   double enclosed_border_fraction = 0.9;
+  bool coplanar = true;
+  double coplanar_angle = 20 * M_PI / 180;
+  double coplanar_max_offset = 0.25;  // mean edge lengths
+  double coplanar_max_rms = 0.5;      // mean edge lengths
+  int coplanar_min_faces = 12;
+  double speckle_angle = 45 * M_PI / 180;
+  double speckle_max_distance = 0.5;  // mean edge lengths
+  double speckle_max_fraction = 0.3;
   double edge = 0;                  // mean edge length of the model (set in detect)
 };
 
@@ -79,6 +88,14 @@ Params read_params(const Options& o) {
   p.enclosed = o.get_bool("absorb_enclosed");
   p.enclosed_max_fraction = o.get_double("enclosed_max_fraction");
   p.enclosed_border_fraction = o.get_double("enclosed_border_fraction");
+  p.coplanar = o.get_bool("coplanar_grouping");
+  p.coplanar_angle = o.get_double("coplanar_angle_deg") * M_PI / 180;
+  p.coplanar_max_offset = o.get_double("coplanar_max_offset");
+  p.coplanar_max_rms = o.get_double("coplanar_max_rms");
+  p.coplanar_min_faces = static_cast<int>(o.get_int("coplanar_min_faces"));
+  p.speckle_angle = o.get_double("speckle_angle_deg") * M_PI / 180;
+  p.speckle_max_distance = o.get_double("speckle_max_distance");
+  p.speckle_max_fraction = o.get_double("speckle_max_fraction");
   return p;
 }
 
@@ -609,6 +626,181 @@ void absorb_enclosed(const Units& U, const Params& p, std::vector<int>& region, 
   rep["enclosed_groups"] = groups;
 }
 
+/// Refinement (coplanar grouping, our addition; docs/detectors.md refinement 9). Facades come out of
+/// growth cut into several coplanar regions (at pilaster bands, tile cracks, bay windows) with small
+/// speckle regions between them. Two steps, repeated until nothing changes:
+///  (a) grouping: two regions with at least coplanar_min_faces faces each ("large"), adjacent, or
+///      both touching a large region smaller than both, or both bordering one connected cluster of
+///      small regions (a speckle strip between two facade pieces), join when their fitted
+///      normals are within coplanar_angle, the RMS residual of their union's plane fit is at most
+///      coplanar_max_rms mean edge lengths, and each one's offset from the union's plane (the RMS
+///      distance of its surface to that plane beyond its own residual: the part due to tilt and
+///      shift) is at most coplanar_max_offset mean edge lengths. Best-fitting pairs first; groups
+///      are refitted from summed moments after every join.
+///  (b) speckle: a region with fewer than coplanar_min_faces faces joins the neighbouring large
+///      region (at least coplanar_min_faces faces and more than 1/speckle_max_fraction times its
+///      faces) whose plane it lies on best: normal within speckle_angle and the smallest RMS distance
+///      of its surface to the plane, at most speckle_max_distance mean edge lengths.
+/// A wall and a roof (90 degrees) or the ground and a facade never pass the angle tests; a tree
+/// crown fails the residual test (a) and is too far from any plane for (b).
+void group_coplanar(const Units& U, const Params& p, std::vector<int>& region, int& n, json& rep) {
+  const RegionSet rs = aggregate(U, region, n);
+  std::vector<PlaneMoments> m = rs.m;
+  std::vector<Vec3> smooth = rs.smooth;
+  std::vector<std::map<int, double>> nbr = rs.nbr;  // keys may be stale ids: resolve with find
+  UnionFind uf(static_cast<size_t>(n));
+  const double offset_tol = p.coplanar_max_offset * p.edge, rms_tol = p.coplanar_max_rms * p.edge;
+  const double speckle_tol = p.speckle_max_distance * p.edge;
+  auto large = [&](int r) { return m[static_cast<size_t>(r)].faces >= p.coplanar_min_faces; };
+  auto normal_of = [&](int r, const PlaneFit& f) {
+    return reliable_normal(m[static_cast<size_t>(r)], f, smooth[static_cast<size_t>(r)], p);
+  };
+  size_t rej_angle = 0, rej_rms = 0, rej_offset = 0;  // candidate pairs failing each test of (a)
+  // Largest offset of the two parts from their union's plane, or a negative value when (a) fails.
+  auto coplanar_cost = [&](int a, int b) {
+    const PlaneMoments& ma = m[static_cast<size_t>(a)];
+    const PlaneMoments& mb = m[static_cast<size_t>(b)];
+    const PlaneFit fa = fit_plane(ma), fb = fit_plane(mb);
+    if (!fa.valid || !fb.valid || normal_angle(normal_of(a, fa), normal_of(b, fb)) >= p.coplanar_angle) {
+      ++rej_angle;
+      return -1.0;
+    }
+    PlaneMoments mu = ma;
+    mu.add(mb);
+    const PlaneFit fu = fit_plane(mu);
+    if (!fu.valid || std::sqrt(fu.eigenvalues[0]) > rms_tol) {
+      ++rej_rms;
+      return -1.0;
+    }
+    double worst = 0;
+    for (const auto* part : {&ma, &mb}) {
+      const PlaneFit& own = part == &ma ? fa : fb;
+      const double d = plane_rms_distance(*part, fu.centroid, fu.normal);
+      worst = std::max(worst, std::sqrt(std::max(0.0, d * d - own.eigenvalues[0])));
+    }
+    if (worst > offset_tol) {
+      ++rej_offset;
+      return -1.0;
+    }
+    return worst;
+  };
+  auto join = [&](int into, int from) {
+    uf.p[static_cast<size_t>(from)] = into;
+    m[static_cast<size_t>(into)].add(m[static_cast<size_t>(from)]);
+    smooth[static_cast<size_t>(into)] += smooth[static_cast<size_t>(from)];
+    auto& dst = nbr[static_cast<size_t>(into)];
+    for (const auto& [t, l] : nbr[static_cast<size_t>(from)]) dst[t] += l;
+    nbr[static_cast<size_t>(from)].clear();
+  };
+  // Current neighbours of root r (other roots) with their shared border length.
+  auto neighbours = [&](int r) {
+    std::map<int, double> out;
+    for (const auto& [t, l] : nbr[static_cast<size_t>(r)]) {
+      const int s = uf.find(t);
+      if (s != r) out[s] += l;
+    }
+    nbr[static_cast<size_t>(r)] = out;  // compact the stale keys
+    return out;
+  };
+  size_t grouped = 0, bridged = 0, speckles = 0, speckle_faces = 0, passes = 0;
+  for (bool changed = true; changed;) {
+    changed = false;
+    ++passes;
+    // (a) Candidate pairs: adjacent large regions, and large regions bordering a common smaller one.
+    std::vector<std::tuple<double, int, int, bool>> pairs;  // cost, a, b, through a bridge
+    std::map<std::pair<int, int>, bool> seen;
+    auto consider = [&](int a, int b, bool bridge) {
+      if (a == b) return;
+      const auto key = std::minmax(a, b);
+      if (!seen.emplace(key, bridge).second) return;
+      const double c = coplanar_cost(a, b);
+      if (c >= 0) pairs.emplace_back(c, key.first, key.second, bridge);
+    };
+    std::vector<std::map<int, double>> nbs(static_cast<size_t>(n));
+    for (int r = 0; r < n; ++r)
+      if (uf.find(r) == r) nbs[static_cast<size_t>(r)] = neighbours(r);
+    auto pairs_around = [&](const std::vector<int>& around) {
+      for (size_t i = 0; i < around.size(); ++i)
+        for (size_t j = i + 1; j < around.size(); ++j) consider(around[i], around[j], true);
+    };
+    std::vector<uint8_t> flooded(static_cast<size_t>(n), 0);
+    for (int r = 0; r < n; ++r) {
+      if (uf.find(r) != r) continue;
+      const std::map<int, double>& nb = nbs[static_cast<size_t>(r)];
+      if (large(r)) {
+        for (const auto& [t, l] : nb)
+          if (large(t)) consider(r, t, false);
+        // A large region smaller than two large neighbours bridges them (a pilaster band).
+        std::vector<int> around;
+        for (const auto& [t, l] : nb)
+          if (large(t) && m[static_cast<size_t>(t)].faces > m[static_cast<size_t>(r)].faces) around.push_back(t);
+        pairs_around(around);
+        continue;
+      }
+      // A connected cluster of small regions (speckle) bridges every large region around it.
+      if (flooded[static_cast<size_t>(r)]) continue;
+      std::vector<int> cluster{r}, around;
+      flooded[static_cast<size_t>(r)] = 1;
+      for (size_t k = 0; k < cluster.size(); ++k)
+        for (const auto& [t, l] : nbs[static_cast<size_t>(cluster[k])]) {
+          if (flooded[static_cast<size_t>(t)]) continue;
+          flooded[static_cast<size_t>(t)] = 1;
+          if (large(t)) around.push_back(t);
+          else cluster.push_back(t);
+        }
+      for (int t : around) flooded[static_cast<size_t>(t)] = 0;  // large ones may border other clusters
+      pairs_around(around);
+    }
+    std::sort(pairs.begin(), pairs.end());
+    for (const auto& [c0, a0, b0, bridge] : pairs) {
+      int a = uf.find(a0), b = uf.find(b0);
+      if (a == b || coplanar_cost(a, b) < 0) continue;
+      if (m[static_cast<size_t>(a)].faces < m[static_cast<size_t>(b)].faces) std::swap(a, b);
+      join(a, b);
+      ++grouped;
+      bridged += bridge;
+      changed = true;
+    }
+    // (b) Speckle, smallest first.
+    std::vector<int> small;
+    for (int r = 0; r < n; ++r)
+      if (uf.find(r) == r && !large(r)) small.push_back(r);
+    std::stable_sort(small.begin(), small.end(), [&](int a, int b) {
+      return m[static_cast<size_t>(a)].faces < m[static_cast<size_t>(b)].faces;
+    });
+    for (int s : small) {
+      if (uf.find(s) != s || large(s)) continue;
+      const PlaneMoments& ms = m[static_cast<size_t>(s)];
+      const Vec3 ns = normal_of(s, fit_plane(ms));
+      int best = -1;
+      double best_d = 0;
+      for (const auto& [t, l] : neighbours(s)) {
+        if (!large(t) || !(ms.faces < p.speckle_max_fraction * m[static_cast<size_t>(t)].faces)) continue;
+        const PlaneFit ft = fit_plane(m[static_cast<size_t>(t)]);
+        if (!ft.valid) continue;
+        const Vec3 nt = normal_of(t, ft);
+        const double d = plane_rms_distance(ms, ft.centroid, nt);
+        if (normal_angle(ns, nt) >= p.speckle_angle || d > speckle_tol || (best >= 0 && d >= best_d)) continue;
+        best = t;
+        best_d = d;
+      }
+      if (best < 0) continue;
+      speckle_faces += static_cast<size_t>(ms.faces);
+      join(best, s);
+      ++speckles;
+      changed = true;
+    }
+  }
+  for (int& r : region) r = uf.find(r);
+  n = compact_labels(region);
+  rep["coplanar_joins"] = grouped;
+  rep["coplanar_joins_across_speckle"] = bridged;
+  rep["coplanar_speckle_absorbed"] = speckles;
+  rep["coplanar_speckle_faces"] = speckle_faces;
+  rep["coplanar_passes"] = passes;
+  rep["coplanar_rejections"] = {{"angle", rej_angle}, {"rms", rej_rms}, {"offset", rej_offset}};
+}
+
 class RegionGrowingDetector final : public Detector {
  public:
   static StageInfo info() {
@@ -641,6 +833,14 @@ class RegionGrowingDetector final : public Detector {
         opt_bool("absorb_enclosed", true, "Refinement: a small region enclosed by one neighbouring region (a balcony or window reveal inside its facade) joins it whatever its angle"),
         opt_double("enclosed_max_fraction", 0.1, "An enclosed region joins only when it has fewer than this fraction of the enclosing region's faces").range(0, 1),
         opt_double("enclosed_border_fraction", 0.9, "Enclosed: at least this fraction of the region's border (shared edges plus open mesh edges, 3D length) is shared with one region").range(0.5, 1),
+        opt_bool("coplanar_grouping", true, "Refinement: join coplanar regions (adjacent or separated by a smaller region) and let small regions lying on a large neighbour's plane join it"),
+        opt_double("coplanar_angle_deg", 20, "Coplanar grouping: fitted normals of the two regions within this angle").range(0, 90).unit("deg"),
+        opt_double("coplanar_max_offset", 0.25, "Coplanar grouping: each region's offset from the union's plane (RMS distance beyond its own residual: tilt and shift) at most this many mean edge lengths; a parallel step larger than this stays apart").range(0, 1000),
+        opt_double("coplanar_max_rms", 0.5, "Coplanar grouping: RMS residual of the union's plane fit at most this many mean edge lengths").range(0, 1000),
+        opt_int("coplanar_min_faces", 12, "Coplanar grouping: regions with at least this many faces are grouped; smaller ones are speckle").range(1, 1000000),
+        opt_double("speckle_max_distance", 0.5, "Coplanar grouping: a speckle region joins a large neighbour when the RMS distance of its surface to that plane is at most this many mean edge lengths (the nearest such plane)").range(0, 1000),
+        opt_double("speckle_max_fraction", 0.3, "Coplanar grouping: a speckle region joins only a neighbour with more than 1/this times its faces (a plane fitted well enough to judge it)").range(0, 1),
+        opt_double("speckle_angle_deg", 45, "Coplanar grouping: a speckle region joins a large neighbour's plane only when their normals are within this angle (never across a wall/roof crease)").range(0, 90).unit("deg"),
     };
     for (OptionSpec& o : output_options()) i.options.push_back(std::move(o));
     i.create = [] { return std::make_unique<RegionGrowingDetector>(); };
@@ -676,6 +876,7 @@ class RegionGrowingDetector final : public Detector {
     if (p.strips) dissolve_strips(U, p, region, n, rep);
     if (p.curved) group_curved(U, p, region, n, rep);
     if (p.jagged) absorb_small(U, p, region, n, rep);
+    if (p.coplanar) group_coplanar(U, p, region, n, rep);
     if (p.enclosed) absorb_enclosed(U, p, region, n, rep);
     ctx.step(kName, 0.9);
     std::vector<int> face_label(ctx.mesh->faces.size(), -1);

@@ -207,8 +207,51 @@ int add_wall_with_hole(tmesh::Builder& b, int hole_width) {
 }
 
 // Options isolating the enclosed rule: wedges stay one unit (no split), units are judged by their
-// covariance fit (tilted ~45 degrees, so growth never takes a wedge into the wall), jagged off.
-const json kEnclosedIso = {{"split_nonplanar_patches", false}, {"fit_min_faces", 1}, {"jagged_borders", false}};
+// covariance fit (tilted ~45 degrees, so growth never takes a wedge into the wall), jagged and
+// coplanar grouping off (its speckle step would take the wedge first: it lies within half an edge of
+// the wall's plane).
+const json kEnclosedIso = {{"split_nonplanar_patches", false}, {"fit_min_faces", 1}, {"jagged_borders", false},
+                           {"coplanar_grouping", false}};
+
+/// Wall y = 0 of 1 m quads in 2x2-quad charts, x in [0, 21], z in [0, 4], cut at x in [10, 11] by
+/// a vertical ridge sticking out `depth` m towards -y (two panels of 4 quads each, one chart per
+/// panel, tilted atan(depth / 0.5) from the wall). The two wall pieces touch only the ridge.
+/// Truth: left piece 0, right piece 1, ridge panels 2 and 3.
+tmesh::Case ridge_wall(double depth) {
+  tmesh::Builder b;
+  int next = b.add_grid(Vec3(0, 0, 0), Vec3(10, 0, 0), Vec3(0, 0, 4), 10, 4, 2, 2, 0, 0);
+  next = b.add_grid(Vec3(11, 0, 0), Vec3(10, 0, 0), Vec3(0, 0, 4), 10, 4, 2, 2, next, 1);
+  next = b.add_grid(Vec3(10, 0, 0), Vec3(0.5, -depth, 0), Vec3(0, 0, 4), 1, 4, 1, 4, next, 2);
+  b.add_grid(Vec3(10.5, -depth, 0), Vec3(0.5, depth, 0), Vec3(0, 0, 4), 1, 4, 1, 4, next, 3);
+  return b.build("ridge_wall");
+}
+
+/// Wall y = 0, x in [0, 10], z in [0, 8], 0.5 m quads in 2x2-quad charts, with a 2 x 2 m window
+/// (x in [4, 6], z in [3, 5]) recessed `depth` m behind it (towards +y: the wall faces -y), joined
+/// by four reveal strips. Truth: wall 0, window plane 1, reveals 2.
+tmesh::Case recessed_window(double depth) {
+  tmesh::Builder b;
+  int next = 0;
+  // Wall around the hole: below, above, left, right.
+  next = b.add_grid(Vec3(0, 0, 0), Vec3(10, 0, 0), Vec3(0, 0, 3), 20, 6, 2, 2, next, 0);
+  next = b.add_grid(Vec3(0, 0, 5), Vec3(10, 0, 0), Vec3(0, 0, 3), 20, 6, 2, 2, next, 0);
+  next = b.add_grid(Vec3(0, 0, 3), Vec3(4, 0, 0), Vec3(0, 0, 2), 8, 4, 2, 2, next, 0);
+  next = b.add_grid(Vec3(6, 0, 3), Vec3(4, 0, 0), Vec3(0, 0, 2), 8, 4, 2, 2, next, 0);
+  next = b.add_grid(Vec3(4, depth, 3), Vec3(2, 0, 0), Vec3(0, 0, 2), 4, 4, 2, 2, next, 1);
+  // Reveals (normals pointing into the opening): bottom, top, left, right.
+  next = b.add_grid(Vec3(4, 0, 3), Vec3(2, 0, 0), Vec3(0, depth, 0), 4, 1, 4, 1, next, 2);
+  next = b.add_grid(Vec3(4, depth, 5), Vec3(2, 0, 0), Vec3(0, -depth, 0), 4, 1, 4, 1, next, 2);
+  next = b.add_grid(Vec3(4, 0, 3), Vec3(0, depth, 0), Vec3(0, 0, 2), 1, 4, 1, 4, next, 2);
+  b.add_grid(Vec3(6, depth, 3), Vec3(0, -depth, 0), Vec3(0, 0, 2), 1, 4, 1, 4, next, 2);
+  return b.build("recessed_window");
+}
+
+/// Region of the first face with truth id t.
+int region_of_truth(const tmesh::Case& c, const Regions& r, int t) {
+  for (size_t f = 0; f < c.truth.size(); ++f)
+    if (c.truth[f] == t) return r.face_region[f];
+  return -2;
+}
 
 }  // namespace
 
@@ -375,4 +418,70 @@ TEST(DetectorsRegionGrowing, ProgressCanCancel) {
   const tmesh::Case c = tmesh::jagged_case();
   EXPECT_THROW(tmesh::run_detector(kRG, c.mesh, json::object(), [](const std::string&, double f) { return f < 0.5; }),
                Cancelled);
+}
+
+TEST(DetectorsRegionGrowing, CoplanarPiecesSeparatedByARidgeJoin) {
+  // Two wall pieces of 80 faces each, in one plane, touching only a ridge whose panels stand 60
+  // degrees out of the wall (depth 0.87 m over 0.5 m): growth cannot cross it, the ridge panels are
+  // strips that fit no plane within 40 degrees and are not enclosed (their ends are open), so
+  // without coplanar grouping the wall stays in two regions.
+  const tmesh::Case c = ridge_wall(0.866);
+  ASSERT_EQ(c.mesh.faces.size(), 176u);
+  const tmesh::Detection off = tmesh::run_detector(kRG, c.mesh, {{"coplanar_grouping", false}});
+  expect_valid(c.mesh, off.regions);
+  EXPECT_NE(region_of_truth(c, off.regions, 0), region_of_truth(c, off.regions, 1));
+  EXPECT_EQ(off.regions.num_regions, 4);
+  const tmesh::Detection on = tmesh::run_detector(kRG, c.mesh);
+  expect_valid(c.mesh, on.regions);
+  EXPECT_EQ(region_of_truth(c, on.regions, 0), region_of_truth(c, on.regions, 1));
+  EXPECT_EQ(on.report["coplanar_joins"], 1);
+  EXPECT_EQ(on.report["coplanar_joins_across_speckle"], 1);
+  // The ridge panels stand 60 degrees out of the wall: not speckle on its plane (45 degrees).
+  EXPECT_NE(region_of_truth(c, on.regions, 2), region_of_truth(c, on.regions, 0));
+  EXPECT_EQ(on.regions.num_regions, 3);
+  // With a zero angle tolerance no pair passes.
+  EXPECT_EQ(tmesh::run_detector(kRG, c.mesh, {{"coplanar_angle_deg", 0.0}}).regions.num_regions, 4);
+}
+
+TEST(DetectorsRegionGrowing, CoplanarGroupingNeverJoinsAWallAndARoof) {
+  // The noisy wall + roof of Figure 3a and the chart wrapping the crease, with every distance
+  // tolerance of the refinement opened up: the angle tests alone keep the 90-degree planes apart.
+  const json loose = {{"coplanar_max_rms", 1000.0}, {"coplanar_max_offset", 1000.0},
+                      {"speckle_max_distance", 1000.0}, {"speckle_max_fraction", 1.0}, {"coplanar_min_faces", 1}};
+  for (const tmesh::Case& c : {tmesh::jagged_case(), tmesh::corner_chart_case()}) {
+    json rep;
+    const auto s = score(c, kRG, loose, &rep);
+    EXPECT_EQ(s.regions, 2) << c.name;
+    EXPECT_EQ(s.under_segmented, 0) << c.name;
+    EXPECT_DOUBLE_EQ(s.accuracy, 1.0) << c.name;
+    EXPECT_GT(rep["coplanar_rejections"]["angle"].get<int>(), 0) << c.name;  // the pair was considered
+  }
+}
+
+TEST(DetectorsRegionGrowing, RecessedWindowJoinsOnlyWhenTheStepIsBelowTheOffsetTolerance) {
+  // Our decision: a window plane parallel to its facade joins it when the step is under
+  // coplanar_max_offset (0.25) mean edge lengths, which photogrammetry at this resolution cannot
+  // resolve; a deeper recess is a plane of its own. Mean edge here ~0.55 m: tolerance ~0.14 m.
+  // Enclosed rule off: it would take the window and reveals into the wall whatever the depth (they
+  // are a small cluster enclosed by the wall).
+  const json iso = {{"absorb_enclosed", false}};
+  for (const double depth : {0.05, 0.2, 0.5}) {
+    const tmesh::Case c = recessed_window(depth);
+    const tmesh::Detection d = tmesh::run_detector(kRG, c.mesh, iso);
+    const tmesh::Detection d_off = tmesh::run_detector(kRG, c.mesh, {{"absorb_enclosed", false}, {"coplanar_grouping", false}});
+    expect_valid(c.mesh, d.regions);
+    std::printf("recess %.2f m: mean edge %.3f, wall and window %s, %d regions (%d without grouping)\n", depth,
+                d.report["mean_edge_length"].get<double>(),
+                region_of_truth(c, d.regions, 0) == region_of_truth(c, d.regions, 1) ? "joined" : "apart",
+                d.regions.num_regions, d_off.regions.num_regions);
+    EXPECT_NE(region_of_truth(c, d_off.regions, 0), region_of_truth(c, d_off.regions, 1)) << depth;
+    if (depth < 0.1)
+      EXPECT_EQ(region_of_truth(c, d.regions, 0), region_of_truth(c, d.regions, 1)) << depth;
+    else
+      EXPECT_NE(region_of_truth(c, d.regions, 0), region_of_truth(c, d.regions, 1)) << depth;
+  }
+  // A 20 cm recess joins when the tolerance is a mean edge.
+  const tmesh::Case c = recessed_window(0.2);
+  const tmesh::Detection wide = tmesh::run_detector(kRG, c.mesh, {{"absorb_enclosed", false}, {"coplanar_max_offset", 1.0}});
+  EXPECT_EQ(region_of_truth(c, wide.regions, 0), region_of_truth(c, wide.regions, 1));
 }
