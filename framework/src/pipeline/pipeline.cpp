@@ -320,12 +320,15 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     const std::string fill = config.texture.get_string("fill");
     ro.fill = fill == "none" ? GutterFill::None : fill == "dilate" ? GutterFill::Dilate : GutterFill::PullPush;
     ro.dilate_width = static_cast<int>(config.texture.get_int("dilate_width"));
+    ro.fit = config.texture.get_string("fit") == "least_squares" ? TexelFit::LeastSquares : TexelFit::Sample;
+    ro.fit_iterations = static_cast<int>(config.texture.get_int("fit_iterations"));
     ResampleStats rs;
     out_pages = resample_atlas(mesh, in_pages, ctx.atlas, ctx.layout, ro, &rs, progress);
     node["texels_written"] = rs.texels_written;
     node["texels_copied"] = rs.texels_copied;
     node["faces_copied"] = rs.faces_copied;
     node["faces_resampled"] = rs.faces_resampled;
+    node["texels_fitted"] = rs.texels_fitted;
   });
 
   double mp_out = 0;

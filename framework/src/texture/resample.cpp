@@ -114,6 +114,22 @@ struct Sampler {
     }
   }
 
+  /// Bilinear value without rounding (the least-squares fit's target).
+  void bilinear_f(double gx, double gy, float* out) const {
+    gx = clamp_grid(gx, w);
+    gy = clamp_grid(gy, h);
+    const int x0 = ifloor(gx), y0 = ifloor(gy);
+    const float fx = static_cast<float>(gx - x0), fy = static_cast<float>(gy - y0);
+    const int xa = clampi(x0, w - 1), xb = clampi(x0 + 1, w - 1);
+    const int ya = clampi(y0, h - 1), yb = clampi(y0 + 1, h - 1);
+    const uint8_t *p00 = texel(xa, ya), *p10 = texel(xb, ya), *p01 = texel(xa, yb), *p11 = texel(xb, yb);
+    for (int c = 0; c < C; ++c) {
+      const float top = static_cast<float>(p00[c]) + fx * static_cast<float>(p10[c] - p00[c]);
+      const float bot = static_cast<float>(p01[c]) + fx * static_cast<float>(p11[c] - p01[c]);
+      out[c] = top + fy * (bot - top);
+    }
+  }
+
   void bicubic(double gx, double gy, uint8_t* out) const {
     gx = clamp_grid(gx, w);
     gy = clamp_grid(gy, h);
@@ -167,6 +183,27 @@ struct FaceJob {
   int in_page = -1;
   std::array<Vec2, 3> out, in;  // texel space, y up
 };
+
+/// Affine map output texel space -> input texel space of a face: in = A out + t.
+struct Affine {
+  double A00 = 1, A01 = 0, A10 = 0, A11 = 1, t0 = 0, t1 = 0;
+};
+
+/// The map taking the output triangle `o` onto the input triangle `a`; det = the output triangle's
+/// doubled signed area (must be non-zero).
+Affine face_affine(const std::array<Vec2, 3>& o, const std::array<Vec2, 3>& a, double det) {
+  const Vec2 e1 = o[1] - o[0], e2 = o[2] - o[0];
+  const Vec2 f1 = a[1] - a[0], f2 = a[2] - a[0];
+  const double inv = 1.0 / det;
+  Affine m;  // A = [f1 f2] [e1 e2]^-1
+  m.A00 = (f1.x() * e2.y() - f2.x() * e1.y()) * inv;
+  m.A01 = (f2.x() * e1.x() - f1.x() * e2.x()) * inv;
+  m.A10 = (f1.y() * e2.y() - f2.y() * e1.y()) * inv;
+  m.A11 = (f2.y() * e1.x() - f1.y() * e2.x()) * inv;
+  m.t0 = a[0].x() - (m.A00 * o[0].x() + m.A01 * o[0].y());
+  m.t1 = a[0].y() - (m.A10 * o[0].x() + m.A11 * o[0].y());
+  return m;
+}
 
 /// Finds a rotation by a multiple of 90 degrees R and an integer translation t with
 /// in_k = R out_k + t for the three corners (within kCopyTolerance). Returns false if none.
@@ -351,14 +388,8 @@ void render_face(const FaceJob& job, const Sampler<C>& src, Filter filter, Canva
   }
 
   // Affine map output texel space -> input texel space: in = A out + t.
-  const auto& a = job.in;
-  const Vec2 f1 = a[1] - a[0], f2 = a[2] - a[0];
-  const double inv = 1.0 / det;
-  // A = [f1 f2] [e1 e2]^-1
-  const double A00 = (f1.x() * e2.y() - f2.x() * e1.y()) * inv, A01 = (f2.x() * e1.x() - f1.x() * e2.x()) * inv;
-  const double A10 = (f1.y() * e2.y() - f2.y() * e1.y()) * inv, A11 = (f2.y() * e1.x() - f1.y() * e2.x()) * inv;
-  const double t0 = a[0].x() - (A00 * o[0].x() + A01 * o[0].y());
-  const double t1 = a[0].y() - (A10 * o[0].x() + A11 * o[0].y());
+  const Affine af = face_affine(o, job.in, det);
+  const double A00 = af.A00, A01 = af.A01, A10 = af.A10, A11 = af.A11, t0 = af.t0, t1 = af.t1;
   const double Hi = src.h;
   GridMap g;
   g.xi = A00;
@@ -447,6 +478,222 @@ void render_face(const FaceJob& job, const Sampler<C>& src, Filter filter, Canva
     }
     for (int i = std::max(ihi_row + 1, blo); i <= bhi; ++i) border(i);
   }
+}
+
+// ------------------------------------------------------------------------------------------------
+// Least-squares texel fit (TexelFit::LeastSquares)
+//
+// A renderer (and eval's fidelity measure) reads the output page bilinearly. Sampling the input at
+// each texel centre and reading the result bilinearly again filters twice; instead, the texels of
+// resampled faces are chosen so that the bilinear reconstruction of the output page matches the
+// bilinear reconstruction of the input page seen through the face maps, in least squares over every
+// output triangle (the L2 projection onto the bilinear basis; cf. Blu, Thevenaz, Unser, "Linear
+// interpolation revitalized", IEEE TIP 2004). Quadrature: 2 x 2 Gauss-Legendre points in every cell
+// between four texel centres (exact for the output side, a polynomial of degree 2 per axis). Copied
+// texels stay fixed; a small Tikhonov term keeps barely seen texels (chart borders) near their
+// sampled value. Solved by Jacobi-preconditioned conjugate gradients on the fitted texels only.
+
+/// Gauss-Legendre abscissae of [0, 1], 2 points.
+constexpr double kGauss[2] = {0.21132486540518713, 0.78867513459481287};
+/// Tikhonov weight towards the sampled value, relative to a fully covered texel's weight (16/9).
+constexpr float kFitRegularisation = 0.02f;
+
+/// Sum over the samples present in `mask` (bit 2b + a: Gauss point (a, b) of the cell) of w w^T,
+/// w = bilinear weights of the cell's corners (index 2 dy + dx).
+std::array<float, 16> cell_matrix(int mask) {
+  std::array<float, 16> M{};
+  for (int b = 0; b < 2; ++b)
+    for (int a = 0; a < 2; ++a) {
+      if (!(mask & (1 << (2 * b + a)))) continue;
+      const double wx[2] = {1 - kGauss[a], kGauss[a]}, wy[2] = {1 - kGauss[b], kGauss[b]};
+      double w[4];
+      for (int k = 0; k < 4; ++k) w[k] = wx[k & 1] * wy[k >> 1];
+      for (int k = 0; k < 4; ++k)
+        for (int l = 0; l < 4; ++l) M[static_cast<size_t>(4 * k + l)] += static_cast<float>(w[k] * w[l]);
+    }
+  return M;
+}
+
+template <int C>
+size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<const Image*>& inputs, int iterations,
+                         Canvas& cv) {
+  const int W = cv.w, H = cv.h;
+  const size_t n = static_cast<size_t>(W) * static_cast<size_t>(H);
+  // Fitted texels: written by a resampled face (interior or border), not copied.
+  std::vector<int> uid(n, -1);
+  std::vector<size_t> texel_of;
+  for (size_t t = 0; t < n; ++t)
+    if ((cv.state[t] & kCoverMask) && !(cv.state[t] & kCopied)) {
+      uid[t] = static_cast<int>(texel_of.size());
+      texel_of.push_back(t);
+    }
+  const size_t U = texel_of.size();
+  if (U == 0) return 0;
+
+  // Cells: cell (m, q), m in [-1, W-1], q in [-1, H-1], spans grid [m, m+1] x [q, q+1] (grid: texel
+  // centres at integers, row index downwards); its corners clamp to the page (clamp-to-edge reads).
+  const size_t cw = static_cast<size_t>(W) + 1;
+  std::vector<uint8_t> cmask(cw * (static_cast<size_t>(H) + 1), 0);
+  auto corner = [&](long long m, long long q, int k) {
+    const int x = clampi(m + (k & 1), W - 1), y = clampi(q + (k >> 1), H - 1);
+    return static_cast<size_t>(y) * static_cast<size_t>(W) + static_cast<size_t>(x);
+  };
+  std::vector<float> rhs(U * C, 0.f);
+  for (const FaceJob& job : jobs) {
+    const auto& o = job.out;
+    const Vec2 e1 = o[1] - o[0], e2 = o[2] - o[0];
+    const double det = e1.x() * e2.y() - e1.y() * e2.x();
+    const double longest2 = std::max({e1.squaredNorm(), e2.squaredNorm(), (o[2] - o[1]).squaredNorm()});
+    if (!(std::abs(det) > kDegenerateRatio * longest2)) continue;
+    const Affine af = face_affine(o, job.in, det);
+    const Image& in = *inputs[static_cast<size_t>(job.in_page)];
+    Sampler<C> src;
+    src.px = in.pixels.data();
+    src.w = in.width;
+    src.h = in.height;
+    // Corners in grid coordinates; edge functions positive inside.
+    std::array<Vec2, 3> g;
+    for (int k = 0; k < 3; ++k) g[static_cast<size_t>(k)] = Vec2(o[static_cast<size_t>(k)].x() - 0.5, H - o[static_cast<size_t>(k)].y() - 0.5);
+    const double sgn = det > 0 ? -1.0 : 1.0;  // the y flip reverses the orientation
+    auto inside = [&](double px, double py) {
+      for (int k = 0; k < 3; ++k) {
+        const Vec2& a = g[static_cast<size_t>(k)];
+        const Vec2& b = g[static_cast<size_t>((k + 1) % 3)];
+        if (sgn * ((b.x() - a.x()) * (py - a.y()) - (b.y() - a.y()) * (px - a.x())) < 0) return false;
+      }
+      return true;
+    };
+    const double gxmin = std::min({g[0].x(), g[1].x(), g[2].x()}), gxmax = std::max({g[0].x(), g[1].x(), g[2].x()});
+    const double gymin = std::min({g[0].y(), g[1].y(), g[2].y()}), gymax = std::max({g[0].y(), g[1].y(), g[2].y()});
+    const long long m0 = std::max<long long>(-1, static_cast<long long>(std::floor(gxmin)));
+    const long long m1 = std::min<long long>(W - 1, static_cast<long long>(std::floor(gxmax)));
+    const long long q0 = std::max<long long>(-1, static_cast<long long>(std::floor(gymin)));
+    const long long q1 = std::min<long long>(H - 1, static_cast<long long>(std::floor(gymax)));
+    const double Hi = in.height;
+    for (long long q = q0; q <= q1; ++q)
+      for (long long m = m0; m <= m1; ++m) {
+        size_t cidx[4];
+        bool touches = false;
+        for (int k = 0; k < 4; ++k) {
+          cidx[k] = corner(m, q, k);
+          touches = touches || uid[cidx[k]] >= 0;
+        }
+        if (!touches) continue;
+        uint8_t& cm = cmask[static_cast<size_t>(q + 1) * cw + static_cast<size_t>(m + 1)];
+        for (int b = 0; b < 2; ++b)
+          for (int a = 0; a < 2; ++a) {
+            const int bit = 1 << (2 * b + a);
+            const double px = static_cast<double>(m) + kGauss[a], py = static_cast<double>(q) + kGauss[b];
+            if ((cm & bit) || !inside(px, py)) continue;
+            cm = static_cast<uint8_t>(cm | bit);
+            const double ox = px + 0.5, oy = H - py - 0.5;
+            const double u = af.A00 * ox + af.A01 * oy + af.t0, v = af.A10 * ox + af.A11 * oy + af.t1;
+            float target[C];
+            src.bilinear_f(u - 0.5, Hi - v - 0.5, target);
+            const double wx[2] = {1 - kGauss[a], kGauss[a]}, wy[2] = {1 - kGauss[b], kGauss[b]};
+            for (int k = 0; k < 4; ++k) {
+              const int id = uid[cidx[k]];
+              if (id < 0) continue;
+              const float w = static_cast<float>(wx[k & 1] * wy[k >> 1]);
+              for (int c = 0; c < C; ++c) rhs[static_cast<size_t>(id) * C + static_cast<size_t>(c)] += w * target[c];
+            }
+          }
+      }
+  }
+
+  // Active cells: corner ids (-1: fixed texel) and the cell's matrix; fixed corners move to the RHS.
+  std::array<std::array<float, 16>, 16> mats;
+  for (int mask = 0; mask < 16; ++mask) mats[static_cast<size_t>(mask)] = cell_matrix(mask);
+  struct Cell {
+    int id[4];
+    uint8_t mask;
+  };
+  std::vector<Cell> cells;
+  std::vector<float> diag(U, 0.f);
+  const uint8_t* px = cv.img->pixels.data();
+  for (size_t ci = 0; ci < cmask.size(); ++ci) {
+    if (!cmask[ci]) continue;
+    const long long m = static_cast<long long>(ci % cw) - 1, q = static_cast<long long>(ci / cw) - 1;
+    Cell cell;
+    cell.mask = cmask[ci];
+    size_t cidx[4];
+    for (int k = 0; k < 4; ++k) {
+      cidx[k] = corner(m, q, k);
+      cell.id[k] = uid[cidx[k]];
+    }
+    const std::array<float, 16>& M = mats[cell.mask];
+    for (int k = 0; k < 4; ++k) {
+      if (cell.id[k] < 0) continue;
+      for (int l = 0; l < 4; ++l) {
+        const float mkl = M[static_cast<size_t>(4 * k + l)];
+        if (cell.id[l] == cell.id[k]) diag[static_cast<size_t>(cell.id[k])] += mkl;
+        if (cell.id[l] >= 0) continue;
+        const uint8_t* f = px + cidx[l] * C;
+        for (int c = 0; c < C; ++c) rhs[static_cast<size_t>(cell.id[k]) * C + static_cast<size_t>(c)] -= mkl * static_cast<float>(f[c]);
+      }
+    }
+    cells.push_back(cell);
+  }
+  const float lambda = kFitRegularisation * 16.f / 9.f;
+  std::vector<float> x(U * C);
+  for (size_t u = 0; u < U; ++u)
+    for (int c = 0; c < C; ++c) {
+      x[u * C + static_cast<size_t>(c)] = static_cast<float>(px[texel_of[u] * C + static_cast<size_t>(c)]);
+      rhs[u * C + static_cast<size_t>(c)] += lambda * x[u * C + static_cast<size_t>(c)];
+    }
+  for (float& d : diag) d += lambda;
+
+  // K v = sum over cells of G^T M G v + lambda v, on the fitted texels.
+  auto apply = [&](const std::vector<float>& v, std::vector<float>& out) {
+    for (size_t i = 0; i < out.size(); ++i) out[i] = lambda * v[i];
+    for (const Cell& cell : cells) {
+      const std::array<float, 16>& M = mats[cell.mask];
+      float loc[4][C];
+      for (int k = 0; k < 4; ++k)
+        for (int c = 0; c < C; ++c)
+          loc[k][c] = cell.id[k] >= 0 ? v[static_cast<size_t>(cell.id[k]) * C + static_cast<size_t>(c)] : 0.f;
+      for (int k = 0; k < 4; ++k) {
+        if (cell.id[k] < 0) continue;
+        float acc[C] = {};
+        for (int l = 0; l < 4; ++l)
+          for (int c = 0; c < C; ++c) acc[c] += M[static_cast<size_t>(4 * k + l)] * loc[l][c];
+        for (int c = 0; c < C; ++c) out[static_cast<size_t>(cell.id[k]) * C + static_cast<size_t>(c)] += acc[c];
+      }
+    }
+  };
+  std::vector<float> r(U * C), z(U * C), p(U * C), Kp(U * C);
+  apply(x, Kp);
+  double rz = 0, r0 = 0;
+  for (size_t i = 0; i < r.size(); ++i) {
+    r[i] = rhs[i] - Kp[i];
+    z[i] = r[i] / diag[i / C];
+    p[i] = z[i];
+    rz += static_cast<double>(r[i]) * z[i];
+    r0 += static_cast<double>(r[i]) * r[i];
+  }
+  for (int it = 0; it < iterations && rz > 0; ++it) {
+    apply(p, Kp);
+    double pKp = 0;
+    for (size_t i = 0; i < p.size(); ++i) pKp += static_cast<double>(p[i]) * Kp[i];
+    if (!(pKp > 0)) break;
+    const float alpha = static_cast<float>(rz / pKp);
+    double rz_new = 0, rr = 0;
+    for (size_t i = 0; i < r.size(); ++i) {
+      x[i] += alpha * p[i];
+      r[i] -= alpha * Kp[i];
+      z[i] = r[i] / diag[i / C];
+      rz_new += static_cast<double>(r[i]) * z[i];
+      rr += static_cast<double>(r[i]) * r[i];
+    }
+    if (rr <= 1e-8 * r0) break;
+    const float beta = static_cast<float>(rz_new / rz);
+    rz = rz_new;
+    for (size_t i = 0; i < p.size(); ++i) p[i] = z[i] + beta * p[i];
+  }
+  uint8_t* out = cv.img->pixels.data();
+  for (size_t u = 0; u < U; ++u)
+    for (int c = 0; c < C; ++c) out[texel_of[u] * C + static_cast<size_t>(c)] = to_byte(x[u * C + static_cast<size_t>(c)]);
+  return U;
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -700,6 +947,14 @@ void render_page(const PageTask& task, const std::vector<const Image*>& inputs, 
     default: render_page_jobs<4>(task.jobs, inputs, opt.filter, cv, ps, prog); break;
   }
   if (prog.cancelled) return;
+  if (opt.fit == TexelFit::LeastSquares) {
+    switch (C) {
+      case 1: st.texels_fitted = fit_least_squares<1>(task.jobs, inputs, opt.fit_iterations, cv); break;
+      case 2: st.texels_fitted = fit_least_squares<2>(task.jobs, inputs, opt.fit_iterations, cv); break;
+      case 3: st.texels_fitted = fit_least_squares<3>(task.jobs, inputs, opt.fit_iterations, cv); break;
+      default: st.texels_fitted = fit_least_squares<4>(task.jobs, inputs, opt.fit_iterations, cv); break;
+    }
+  }
   st.faces_copied = ps.faces_copied;
   st.faces_resampled = ps.faces_resampled;
   for (uint8_t s : cv.state) {
@@ -730,6 +985,8 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
   }
   if (atlas.face_chart.size() != mesh.faces.size() || atlas.face_wedge.size() != mesh.faces.size())
     fail("atlas has " + std::to_string(atlas.face_chart.size()) + " faces, mesh has " + std::to_string(mesh.faces.size()));
+  if (options.fit == TexelFit::LeastSquares && options.fit_iterations < 1)
+    fail("fit_iterations = " + std::to_string(options.fit_iterations) + " is below 1");
   if (options.fill == GutterFill::Dilate && options.dilate_width < 0)
     fail("dilate_width = " + std::to_string(options.dilate_width) + " is negative");
   for (size_t p = 0; p < layout.pages.size(); ++p) {
@@ -891,6 +1148,7 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
       stats->texels_copied += s.texels_copied;
       stats->faces_copied += s.faces_copied;
       stats->faces_resampled += s.faces_resampled;
+      stats->texels_fitted += s.texels_fitted;
     }
   }
   return out;

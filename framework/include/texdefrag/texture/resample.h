@@ -22,10 +22,19 @@ namespace texdefrag {
 
 enum class Filter { Nearest, Bilinear, Bicubic };
 enum class GutterFill { None, Dilate, PullPush };
+/// How resampled texel values are chosen: Sample (each texel takes the input's value at its centre's
+/// pre-image) or LeastSquares (starting there, the resampled texels are adjusted so that the
+/// output page read bilinearly matches the input page read bilinearly through the face maps, in
+/// least squares over each output triangle; docs/texture.md).
+enum class TexelFit { Sample, LeastSquares };
 
 struct ResampleOptions {
   /// Sampling of the input pages: Nearest, Bilinear, or Bicubic (Catmull-Rom, clamped to [0, 255]).
   Filter filter = Filter::Bilinear;
+  /// Texel values of resampled (not copied) faces; copied texels are never changed.
+  TexelFit fit = TexelFit::LeastSquares;
+  /// Conjugate-gradient iterations of TexelFit::LeastSquares, >= 1.
+  int fit_iterations = 8;
   /// Texels no triangle covers: PullPush (all filled from a pyramid of covered texels), Dilate
   /// (dilate_width rings, rest background) or None (background).
   GutterFill fill = GutterFill::PullPush;
@@ -42,6 +51,7 @@ struct ResampleStats {
   size_t texels_copied = 0;      ///< of those, copied bit-exact (whole-texel translation/rotation)
   size_t faces_copied = 0;       ///< faces whose map allowed exact copying
   size_t faces_resampled = 0;    ///< other textured faces (zero-area output faces count here)
+  size_t texels_fitted = 0;      ///< texels adjusted by TexelFit::LeastSquares
 };
 
 /// Renders the output pages. Layout::pages gives the sizes; the result has one Image per output
