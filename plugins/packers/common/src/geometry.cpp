@@ -201,27 +201,28 @@ void rasterise_triangle(const Vec2& a, const Vec2& b, const Vec2& c, Mask& mask)
 }
 
 Mask dilate(const Mask& m, int lo, int hi) {
+  // note: as shifted ORs of whole rows (byte loops the compiler vectorises): result cell (x, y) is
+  // set when some input cell (x - dx, y - dy), dx, dy in [0, r], is.
   const int r = lo + hi;
-  Mask h;  // horizontal pass
-  h.width = m.width + r;
-  h.height = m.height;
-  h.cells.assign(static_cast<size_t>(h.width) * static_cast<size_t>(h.height), 0);
-  for (int y = 0; y < m.height; ++y) {
-    int last = -1;  // last covered input x
-    for (int x = 0; x < h.width; ++x) {
-      if (x < m.width && m.at(x, y)) last = x;
-      if (last >= 0 && x - last <= r) h.set(x, y);
-    }
-  }
+  const size_t mw = static_cast<size_t>(m.width);
   Mask out;
-  out.width = h.width;
+  out.width = m.width + r;
   out.height = m.height + r;
-  out.cells.assign(static_cast<size_t>(out.width) * static_cast<size_t>(out.height), 0);
-  for (int x = 0; x < out.width; ++x) {
-    int last = -1;
-    for (int y = 0; y < out.height; ++y) {
-      if (y < h.height && h.at(x, y)) last = y;
-      if (last >= 0 && y - last <= r) out.set(x, y);
+  const size_t ow = static_cast<size_t>(out.width);
+  out.cells.assign(ow * static_cast<size_t>(out.height), 0);
+  // Horizontal pass into rows 0 .. m.height - 1 of the result.
+  for (int y = 0; y < m.height; ++y) {
+    const uint8_t* src = m.cells.data() + static_cast<size_t>(y) * mw;
+    uint8_t* dst = out.cells.data() + static_cast<size_t>(y) * ow;
+    for (int d = 0; d <= r; ++d)
+      for (size_t x = 0; x < mw; ++x) dst[x + static_cast<size_t>(d)] |= src[x];
+  }
+  // Vertical pass, top row first so each source row is read before it is changed.
+  for (int y = out.height - 1; y >= 0; --y) {
+    uint8_t* dst = out.cells.data() + static_cast<size_t>(y) * ow;
+    for (int d = (y < m.height ? 1 : y - m.height + 1); d <= r && d <= y; ++d) {
+      const uint8_t* src = out.cells.data() + static_cast<size_t>(y - d) * ow;
+      for (size_t x = 0; x < ow; ++x) dst[x] |= src[x];
     }
   }
   return out;

@@ -179,3 +179,30 @@ TEST(PackersGeometry, DilateKeepsGutter) {
   for (uint8_t c : d.cells) n += c;
   EXPECT_EQ(n, 16 + 16 - 6);  // two 4x4 blocks overlapping on a 2x3 block
 }
+
+TEST(PackersGeometry, DilateMatchesDefinitionOnRandomMasks) {
+  // Every result cell is set exactly when some input cell lies within [0, lo + hi] below-left of it.
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 50; ++trial) {
+    Mask m;
+    m.width = 1 + static_cast<int>(rng() % 20);
+    m.height = 1 + static_cast<int>(rng() % 20);
+    m.cells.resize(static_cast<size_t>(m.width * m.height));
+    for (auto& c : m.cells) c = rng() % 5 == 0;
+    const int lo = static_cast<int>(rng() % 4), hi = static_cast<int>(rng() % 4);
+    const Mask d = dilate(m, lo, hi);
+    const int r = lo + hi;
+    ASSERT_EQ(d.width, m.width + r);
+    ASSERT_EQ(d.height, m.height + r);
+    for (int y = 0; y < d.height; ++y)
+      for (int x = 0; x < d.width; ++x) {
+        bool want = false;
+        for (int dy = 0; dy <= r && !want; ++dy)
+          for (int dx = 0; dx <= r && !want; ++dx) {
+            const int sx = x - dx, sy = y - dy;
+            want = sx >= 0 && sy >= 0 && sx < m.width && sy < m.height && m.at(sx, sy);
+          }
+        ASSERT_EQ(d.at(x, y), want) << "trial " << trial << " cell " << x << "," << y;
+      }
+  }
+}

@@ -23,6 +23,9 @@ struct Profile {
   std::vector<int> bottom;  ///< lowest covered row per column, INT_MAX for an empty column
   std::vector<int> top;     ///< highest covered row + 1 per column, 0 for an empty column
   bool duplicate = false;   ///< same outline as a smaller quarter turn of the same chart
+  int filled = 0;           ///< columns with a covered cell
+  int bmax = 0;             ///< highest bottom among the filled columns
+  long long bsum = 0;       ///< sum of the filled columns' bottoms
 };
 
 /// The profile of chart c in quarter turn q, dilated by the gutter (gutter/2 below and left,
@@ -44,10 +47,13 @@ struct Drop {
 /// A page's horizon with prefix sums and scratch space (reused across drops).
 struct Horizon {
   std::vector<int> H;             ///< top of the filled area per column
-  std::vector<long long> prefix;  ///< prefix[x] = H[0] + ... + H[x-1]
+  std::vector<int> prefix;        ///< prefix[x] = H[0] + ... + H[x-1] (at most 32768^2 = 2^30)
   std::vector<int> lb;            ///< scratch: lower bound of the drop height per offset
-  std::vector<int> dq;            ///< scratch: block prefix maxima of H
-  std::vector<long long> cost_lb; ///< scratch: lower bound of the cost per offset
+  std::vector<int> wmax;          ///< scratch: window maxima of H (doubling)
+  std::vector<int> wtmp;          ///< scratch: window maxima of H (doubling)
+  std::vector<long long> cost_lb; ///< scratch: lower bound of the cost per offset (large pages)
+  std::vector<int> cols, col_bottoms;  ///< scratch: profile columns used for the height bound
+  std::vector<int> cost_lb32;     ///< scratch: lower bound of the cost per offset (pages up to 16384^2)
   int used = 0;                   ///< highest row in use
   /// An empty horizon. width: page width in cells, > 0.
   explicit Horizon(int width);
