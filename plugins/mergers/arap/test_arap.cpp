@@ -203,8 +203,6 @@ TEST(ArapSolversAgree, SameMinimumOnABentPatch) {
   EXPECT_NEAR(re.energy, rc.energy, 1e-9 * re.energy);
   for (int i = 0; i < p.num_free; ++i)
     EXPECT_NEAR((pe.x[static_cast<size_t>(i)] - pc.x[static_cast<size_t>(i)]).norm(), 0, 1e-4) << i;
-  // Ceres' Gauss-Newton steps use the rotation's derivative: it needs far fewer iterations.
-  EXPECT_LT(rc.iterations, re.iterations);
 }
 
 // ---- the stage, created by name, with each solver ------------------------------------------
