@@ -138,6 +138,9 @@ struct ChartInfo {
   std::vector<int> tri_big;  ///< triangles spanning more than kMaxTriCells cells (always tested)
 };
 
+/// Merges the M-method's island lookahead may look ahead (its IslandLookahead(a, b, 5)).
+constexpr int kIslandLookaheadSteps = 5;
+
 /// A triangle spanning more cells than this goes to its chart's tri_big list instead of the grid.
 constexpr long long kMaxTriCells = 64;
 
@@ -194,6 +197,12 @@ class Engine {
   void refresh_planarity(int c);
   void push_pair(int a, int b);
   double score(int a, int b, int& refusal);
+  /// The M-method's exception to its short-seam refusal: true when a sequence of at most max_steps
+  /// merges involving a and b can close a UV island, i.e. for some neighbour c of a or b, the charts
+  /// reachable from a without passing through c are found within max_steps pushes of a depth-first
+  /// visit (so they form an island whose only neighbour is c). False at once when a or b has more
+  /// than max_steps neighbours.
+  bool island_lookahead(int a, int b, int max_steps) const;
   bool candidate(int a, int b) const;
   void pair_points(int big, int small, std::vector<std::pair<int, int>>& pairs);
 
@@ -531,6 +540,41 @@ void Engine::pair_points(int big, int small, std::vector<std::pair<int, int>>& p
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
 }
 
+bool Engine::island_lookahead(int a, int b, int max_steps) const {
+  const ChartInfo& A = charts_[static_cast<size_t>(a)];
+  const ChartInfo& B = charts_[static_cast<size_t>(b)];
+  if (A.adj.size() > static_cast<size_t>(max_steps) || B.adj.size() > static_cast<size_t>(max_steps)) return false;
+  auto sorted_neighbours = [&](int c) {
+    std::vector<int> n;
+    for (const auto& kv : charts_[static_cast<size_t>(c)].adj) n.push_back(kv.first);
+    std::sort(n.begin(), n.end());
+    return n;
+  };
+  std::vector<int> nab = sorted_neighbours(a);
+  for (int c : sorted_neighbours(b)) nab.push_back(c);
+  std::sort(nab.begin(), nab.end());
+  nab.erase(std::unique(nab.begin(), nab.end()), nab.end());
+  for (int c : nab) {
+    std::vector<int> stack{a}, visited{c, a};
+    int steps = 0;
+    auto seen = [&](int x) { return std::find(visited.begin(), visited.end(), x) != visited.end(); };
+    while (!stack.empty() && steps <= max_steps) {
+      const int sc = stack.back();
+      stack.pop_back();
+      if (!seen(sc)) visited.push_back(sc);
+      for (int ac : sorted_neighbours(sc)) {
+        if (!seen(ac)) {
+          stack.push_back(ac);
+          ++steps;
+        }
+        if (steps > max_steps) break;
+      }
+    }
+    if (stack.empty()) return true;  // the component of a without c has c as its only neighbour
+  }
+  return false;
+}
+
 double Engine::score(int a, int b, int& refusal) {
   ChartInfo& A = C(a);
   ChartInfo& B = C(b);
@@ -563,7 +607,8 @@ double Engine::score(int a, int b, int& refusal) {
   const double ra = la > 0 ? A.border / la : 1e30, rb = lb > 0 ? B.border / lb : 1e30;
   const double cost = err * std::min(ra, rb) * std::min(A.uv_area, B.uv_area) * pair_state(a, b).penalty;
   const double mean_seam = nedges ? 0.5 * (la + lb) / static_cast<double>(nedges) : 0;
-  if (la < 0.2 * A.border && lb < 0.2 * B.border && !(across_ && !opt_.second_pass_seam_refusal))
+  if (la < 0.2 * A.border && lb < 0.2 * B.border && !(across_ && !opt_.second_pass_seam_refusal) &&
+      !island_lookahead(a, b, kIslandLookaheadSteps))
     refusal = 1;
   else if (err > 2 * mean_seam)
     refusal = 2;

@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include <functional>
+
 #include <cmath>
 #include <random>
 
@@ -237,6 +239,80 @@ TEST(MergeEngine, FragmentedGridBecomesOneChart) {
   EXPECT_EQ(r.accepted, 59u);
   EXPECT_LT(r.distortion_out, 1e-12);
   test::expect_valid_atlas(run);
+}
+
+/// An 8 x 3 grid of unit quads (2 triangles each) in the plane z = 0; quad (i, j) belongs to chart
+/// chart_of(i, j). Every chart has its own texture coordinates (the quad's position times 16 texels,
+/// shifted by 40 texels per chart along u), so charts meet only at seams.
+TexturedMesh chart_grid(const std::function<int(int, int)>& chart_of) {
+  const int nx = 8, ny = 3, page = 1024;
+  TexturedMesh m;
+  Page pg;
+  pg.material = "m";
+  pg.width = pg.height = page;
+  pg.image_path = "unused.png";
+  m.pages.push_back(pg);
+  for (int j = 0; j <= ny; ++j)
+    for (int i = 0; i <= nx; ++i) m.positions.emplace_back(i, j, 0);
+  auto vid = [&](int i, int j) { return j * (nx + 1) + i; };
+  for (int j = 0; j < ny; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const int c = chart_of(i, j);
+      const int corners[2][3][2] = {{{i, j}, {i + 1, j}, {i + 1, j + 1}}, {{i, j}, {i + 1, j + 1}, {i, j + 1}}};
+      for (const auto& tri : corners) {
+        Face f;
+        f.page = 0;
+        f.source_line = static_cast<int>(m.faces.size()) + 1;
+        for (int k = 0; k < 3; ++k) {
+          const int x = tri[k][0], y = tri[k][1];
+          f.v[static_cast<size_t>(k)] = vid(x, y);
+          f.vt[static_cast<size_t>(k)] = static_cast<int>(m.texcoords.size());
+          m.texcoords.emplace_back((16.0 * x + 40.0 * c * 10) / page, (16.0 * y + 8) / page);
+        }
+        m.faces.push_back(f);
+      }
+    }
+  return m;
+}
+
+TEST(MergeEngine, MMethodIslandLookaheadLiftsTheShortSeamRefusal) {
+  // Strips A = quads 1..3 and B = quads 4..6 of the middle row share one edge: 1/8 of each one's
+  // border, under the M-method's 0.2, so the seam is refused... unless merging them can close an
+  // island (its IslandLookahead): A + B is an island inside chart C (everything else). A and B are
+  // one region and C another, so A-B is the only candidate pair.
+  auto strips = [](int i, int j) { return j == 1 && i >= 1 && i <= 3 ? 0 : j == 1 && i >= 4 && i <= 6 ? 1 : 2; };
+  MergeOptions o;
+  o.priority = Priority::MMethod;
+  auto regions = [](const TexturedMesh& m) {
+    std::vector<int> r(m.faces.size());
+    for (size_t f = 0; f < m.faces.size(); ++f) {
+      const Vec3 c = (m.corner_position(f, 0) + m.corner_position(f, 1) + m.corner_position(f, 2)) / 3;
+      r[f] = c.y() > 1 && c.y() < 2 && c.x() > 1 && c.x() < 7 ? 0 : 1;
+    }
+    return r;
+  };
+  {
+    test::Run run(chart_grid(strips));
+    ASSERT_EQ(run.ctx.atlas.num_charts, 3);
+    ArapSolver solver;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, regions(run.mesh), o, solver, {});
+    EXPECT_EQ(r.rejected.count("seam_too_short"), 0u);
+    EXPECT_EQ(r.accepted, 1u);
+    EXPECT_EQ(r.charts_out, 2u);
+    test::expect_valid_atlas(run);
+  }
+  // The same strips among one chart per remaining quad: A and B have more than 5 neighbours, so no
+  // short lookahead applies and the A-B seam is refused.
+  {
+    test::Run run(chart_grid([&](int i, int j) { return strips(i, j) < 2 ? strips(i, j) : 2 + j * 8 + i; }));
+    ASSERT_EQ(run.ctx.atlas.num_charts, 2 + 18);
+    ArapSolver solver;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, regions(run.mesh), o, solver, {});
+    ASSERT_EQ(r.rejected.count("seam_too_short"), 1u);
+    EXPECT_GE(r.rejected.at("seam_too_short"), 1u);
+    int a = run.ctx.atlas.face_chart[2 * (8 + 1)], b = run.ctx.atlas.face_chart[2 * (8 + 4)];
+    EXPECT_NE(a, b);  // quads (1, 1) and (4, 1): still apart
+  }
 }
 
 TEST(MergeEngine, MaxMergesStops) {
