@@ -129,6 +129,22 @@ void BM_LocalCeresDense(benchmark::State& s) { solve_recorded(s, ceres_dense); }
 void BM_LocalCeresSuiteSparse(benchmark::State& s) { solve_recorded(s, ceres_suitesparse); }
 void BM_LocalCeresEigenSparse(benchmark::State& s) { solve_recorded(s, ceres_eigensparse); }
 
+// Energy against time: every recorded problem, iteration cap = the argument (tolerance 1e-6).
+void BM_LocalEigenIterations(benchmark::State& s) {
+  solve_recorded(s, [&s]() -> std::unique_ptr<LocalSolver> {
+    ArapSettings a;
+    a.iterations = static_cast<int>(s.range(1));
+    return std::make_unique<ArapSolver>(a);
+  });
+}
+void BM_LocalCeresIterations(benchmark::State& s) {
+  solve_recorded(s, [&s]() -> std::unique_ptr<LocalSolver> {
+    CeresArapSettings c;
+    c.iterations = static_cast<int>(s.range(1));
+    return std::make_unique<CeresArapSolver>(c);
+  });
+}
+
 void whole_tile(benchmark::State& state, const char* rel, std::unique_ptr<LocalSolver> (*make)()) {
   const TexturedMesh& m = tile(rel);
   if (m.faces.empty()) return state.SkipWithError("shared data absent");
@@ -164,6 +180,8 @@ BENCHMARK(BM_LocalEigen)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Itera
 BENCHMARK(BM_LocalCeresSuiteSparse)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Iterations(1);
 BENCHMARK(BM_LocalCeresEigenSparse)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Iterations(1);
 BENCHMARK(BM_LocalCeresDense)->DenseRange(0, 3)->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_LocalEigenIterations)->ArgsProduct({{0}, {2, 5, 10, 20, 40}})->Unit(benchmark::kMillisecond)->Iterations(1);
+BENCHMARK(BM_LocalCeresIterations)->ArgsProduct({{0}, {1, 2, 3, 5, 10}})->Unit(benchmark::kMillisecond)->Iterations(1);
 BENCHMARK(BM_TileT015Eigen)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_TileT015Ceres)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_TileT016L19Eigen)->Unit(benchmark::kSecond)->Iterations(1);
