@@ -83,6 +83,7 @@ void solve_recorded(benchmark::State& state, Make make) {
       probs.push_back(&p);
       free_sum += p.num_free;
     }
+  if (probs.empty()) return state.SkipWithError("no recorded problem in this size bucket");
   std::unique_ptr<LocalSolver> solver = make();
   double energy = 0, iterations = 0, seconds = 0;
   size_t not_ok = 0, runs = 0;
