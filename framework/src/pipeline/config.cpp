@@ -52,7 +52,7 @@ const StageInfo& texture_stage_info() {
       {opt_enum("filter", "bilinear", {"nearest", "bilinear", "bicubic"}, "Sampling filter of the input pages"),
        opt_enum("fit", "least_squares", {"sample", "least_squares"},
                 "Texels of resampled faces: the input at their centre, or least-squares fitted so the page read bilinearly matches the input read bilinearly"),
-       opt_int("fit_iterations", 8, "Conjugate-gradient iterations of fit 'least_squares'").range(1, 200),
+       opt_int("fit_iterations", 4, "Conjugate-gradient iterations of fit 'least_squares'").range(1, 200),
        opt_enum("fill", "pull_push", {"none", "dilate", "pull_push"}, "How texels around charts are filled for MIP-mapping"),
        opt_int("dilate_width", 8, "Width of the dilation when fill is 'dilate'").range(0, 256).unit("texels")});
   return info;

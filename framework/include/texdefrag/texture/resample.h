@@ -34,7 +34,7 @@ struct ResampleOptions {
   /// Texel values of resampled (not copied) faces; copied texels are never changed.
   TexelFit fit = TexelFit::LeastSquares;
   /// Conjugate-gradient iterations of TexelFit::LeastSquares, >= 1.
-  int fit_iterations = 8;
+  int fit_iterations = 4;
   /// Texels no triangle covers: PullPush (all filled from a pyramid of covered texels), Dilate
   /// (dilate_width rings, rest background) or None (background).
   GutterFill fill = GutterFill::PullPush;
