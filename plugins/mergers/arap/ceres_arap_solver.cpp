@@ -95,9 +95,9 @@ SolveResult CeresArapSolver::solve(LocalProblem& p) {
     xs[2 * static_cast<size_t>(i)] = p.x[static_cast<size_t>(i)].x();
     xs[2 * static_cast<size_t>(i) + 1] = p.x[static_cast<size_t>(i)].y();
   }
-  ceres::Problem::Options po;
-  po.disable_all_safety_checks = true;  // note: blocks are built here, consistently; saves per-merge time
-  ceres::Problem problem(po);
+  // note: Problem::Options::disable_all_safety_checks made no measurable difference (113-120 vs
+  // 119-166 us per recorded problem, run-to-run noise), so Ceres keeps its checks.
+  ceres::Problem problem;
   std::vector<double*> blocks;
   for (size_t t = 0; t < p.tri.size(); ++t) {
     std::array<int, 3> block{-1, -1, -1};
