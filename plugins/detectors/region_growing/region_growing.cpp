@@ -19,11 +19,16 @@
 #include "common/units.h"
 #include "texdefrag/stage/registry.h"
 
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <limits>
 #include <map>
 #include <numeric>
+#include <tuple>
 
 namespace texdefrag::detectors {
 namespace {
@@ -60,6 +65,11 @@ struct Params {
   double speckle_angle = 45 * M_PI / 180;
   double speckle_max_distance = 0.5;  // mean edge lengths
   double speckle_max_fraction = 0.3;
+  bool cylinders = true;
+  double cylinder_axis_angle = 15 * M_PI / 180;
+  double cylinder_max_rms = 0.5;     // mean edge lengths
+  double cylinder_max_radius = 50;   // mean edge lengths
+  double cylinder_border_ratio = 0.6;
   double edge = 0;                  // mean edge length of the model (set in detect)
 };
 
@@ -96,6 +106,11 @@ Params read_params(const Options& o) {
   p.speckle_angle = o.get_double("speckle_angle_deg") * M_PI / 180;
   p.speckle_max_distance = o.get_double("speckle_max_distance");
   p.speckle_max_fraction = o.get_double("speckle_max_fraction");
+  p.cylinders = o.get_bool("curved_surfaces");
+  p.cylinder_axis_angle = o.get_double("cylinder_axis_angle_deg") * M_PI / 180;
+  p.cylinder_max_rms = o.get_double("cylinder_max_rms");
+  p.cylinder_max_radius = o.get_double("cylinder_max_radius");
+  p.cylinder_border_ratio = o.get_double("cylinder_border_ratio");
   return p;
 }
 
@@ -189,6 +204,8 @@ struct Units {
   UnitGraph g;
   std::vector<Vec3> smooth;  ///< per unit: sum of area * filtered face normal
   std::vector<double> open;  ///< per unit: 3D length of its edges with no textured face of another unit
+  std::vector<Vec3> face_centroid;  ///< per face, relative to the moments' reference point
+  std::vector<double> face_area;    ///< per face (3D)
 };
 
 /// Per unit, the 3D length of the edges where it has no textured neighbour face (mesh boundary,
@@ -801,6 +818,154 @@ void group_coplanar(const Units& U, const Params& p, std::vector<int>& region, i
   rep["coplanar_rejections"] = {{"angle", rej_angle}, {"rms", rej_rms}, {"offset", rej_offset}};
 }
 
+/// Kasa circle fit in the plane perpendicular to `axis` through area-weighted sample points
+/// (face centroids). Returns the RMS distance of the samples to the circle (model units) and the
+/// radius; rms = infinity when the fit is degenerate (collinear points: no finite circle).
+struct CircleFit {
+  double rms = std::numeric_limits<double>::infinity();
+  double radius = 0;
+};
+
+CircleFit fit_circle(const std::vector<int>& faces, const Units& U, const Vec3& axis) {
+  // note: an orthonormal basis (e1, e2) of the plane perpendicular to the axis; samples are
+  // centred on their weighted mean first so the normal equations stay well conditioned.
+  const Vec3 e1 = (std::abs(axis.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(axis).normalized();
+  const Vec3 e2 = axis.cross(e1);
+  double W = 0;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (int f : faces) {
+    const double w = U.face_area[static_cast<size_t>(f)];
+    const Vec3& c = U.face_centroid[static_cast<size_t>(f)];
+    mean += w * Eigen::Vector2d(c.dot(e1), c.dot(e2));
+    W += w;
+  }
+  CircleFit out;
+  if (!(W > 0)) return out;
+  mean /= W;
+  // Minimise sum w (x^2 + y^2 + D x + E y + F)^2 over (D, E, F).
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (int f : faces) {
+    const double w = U.face_area[static_cast<size_t>(f)];
+    const Vec3& c = U.face_centroid[static_cast<size_t>(f)];
+    const double x = c.dot(e1) - mean.x(), y = c.dot(e2) - mean.y();
+    const Eigen::Vector3d row(x, y, 1);
+    A += w * row * row.transpose();
+    b -= w * (x * x + y * y) * row;
+  }
+  const Eigen::Vector3d s = A.ldlt().solve(b);
+  const double cx = -s[0] / 2, cy = -s[1] / 2, r2 = cx * cx + cy * cy - s[2];
+  if (!std::isfinite(r2) || !(r2 > 0)) return out;
+  out.radius = std::sqrt(r2);
+  double ss = 0;
+  for (int f : faces) {
+    const double w = U.face_area[static_cast<size_t>(f)];
+    const Vec3& c = U.face_centroid[static_cast<size_t>(f)];
+    const double x = c.dot(e1) - mean.x() - cx, y = c.dot(e2) - mean.y() - cy;
+    const double d = std::sqrt(x * x + y * y) - out.radius;
+    ss += w * d * d;
+  }
+  out.rms = std::sqrt(ss / W);
+  return out;
+}
+
+/// Refinement (curved surfaces, our addition; docs/detectors.md refinement 10): growth cuts a silo
+/// or a curved facade into planar pieces about two angle thresholds wide. Two adjacent regions with
+/// at least coplanar_min_faces faces each join when (a) their border is smooth: the length-weighted
+/// mean angle between the units facing each other across it is at most cylinder_border_ratio of
+/// the angle between the two regions' normals (on a curved surface the turn is spread over the
+/// pieces; at a wall/roof crease it all happens at the border), and (b) their union is a cylinder: the
+/// area-weighted unit normals are perpendicular to one axis (smallest eigenvalue of their scatter
+/// matrix at most sin^2(cylinder_axis_angle)) and the face centroids, projected along that axis,
+/// lie on a circle (Kasa fit) with RMS distance at most cylinder_max_rms mean edge lengths, and at
+/// most the pooled RMS residual of the two parts about their own planes (the cylinder explains the
+/// union better than two planes), with a radius of at most cylinder_max_radius mean edge lengths. Smoothest border first (lowest ratio); the union is
+/// refitted after every join, so a flat facade next to a rounded corner (not a circle) stays apart.
+void group_cylinders(const Units& U, const Params& p, std::vector<int>& region, int& n, json& rep) {
+  const UnitGraph& g = U.g;
+  const RegionSet rs = aggregate(U, region, n);
+  std::vector<Vec3> un(static_cast<size_t>(g.num_units));
+  for (int u = 0; u < g.num_units; ++u) un[static_cast<size_t>(u)] = unit_normal(U, u, p);
+  // Per region: faces, normal scatter (sum of area * n n^T over its units), area.
+  std::vector<std::vector<int>> faces(static_cast<size_t>(n));
+  for (size_t f = 0; f < g.face_unit.size(); ++f)
+    if (g.face_unit[f] >= 0) faces[static_cast<size_t>(region[static_cast<size_t>(g.face_unit[f])])].push_back(static_cast<int>(f));
+  std::vector<Eigen::Matrix3d> scatter(static_cast<size_t>(n), Eigen::Matrix3d::Zero());
+  std::vector<double> area(static_cast<size_t>(n), 0.0);
+  for (int u = 0; u < g.num_units; ++u) {
+    const size_t r = static_cast<size_t>(region[static_cast<size_t>(u)]);
+    const double a = g.moments[static_cast<size_t>(u)].area;
+    scatter[r] += a * un[static_cast<size_t>(u)] * un[static_cast<size_t>(u)].transpose();
+    area[r] += a;
+  }
+  // Smooth borders between large regions, smoothest first.
+  std::map<std::pair<int, int>, std::pair<double, double>> border;  // (angle * len, len)
+  for (int u = 0; u < g.num_units; ++u)
+    for (int i = g.adj_offset[static_cast<size_t>(u)]; i < g.adj_offset[static_cast<size_t>(u) + 1]; ++i) {
+      const int v = g.adj[static_cast<size_t>(i)];
+      const int a = region[static_cast<size_t>(u)], b = region[static_cast<size_t>(v)];
+      if (a >= b || rs.m[static_cast<size_t>(a)].faces < p.coplanar_min_faces || rs.m[static_cast<size_t>(b)].faces < p.coplanar_min_faces) continue;
+      const double len = g.adj_length[static_cast<size_t>(i)];
+      auto& e = border[{a, b}];
+      e.first += len * normal_angle(un[static_cast<size_t>(u)], un[static_cast<size_t>(v)]);
+      e.second += len;
+    }
+  // note: on a curved surface cut into pieces the turn is spread over the pieces, so the angle
+  // between the units facing each other across the border is a fraction of the angle between the
+  // pieces' normals; at a crease (wall/roof, facade corner) the whole turn happens at the border.
+  std::vector<std::tuple<double, int, int>> pairs;  // sharpness = border angle / normal angle
+  for (const auto& [k, e] : border) {
+    if (!(e.second > 0)) continue;
+    const size_t a = static_cast<size_t>(k.first), b = static_cast<size_t>(k.second);
+    const double turn = normal_angle(reliable_normal(rs.m[a], rs.fit[a], rs.smooth[a], p),
+                                     reliable_normal(rs.m[b], rs.fit[b], rs.smooth[b], p));
+    const double sharpness = e.first / e.second / turn;
+    if (turn > 0 && sharpness <= p.cylinder_border_ratio) pairs.emplace_back(sharpness, k.first, k.second);
+  }
+  std::sort(pairs.begin(), pairs.end());
+  const double max_axis = std::pow(std::sin(p.cylinder_axis_angle), 2);
+  std::vector<PlaneMoments> m = rs.m;
+  size_t joins = 0, rej_axis = 0, rej_circle = 0;
+  UnionFind uf(static_cast<size_t>(n));
+  for (const auto& [ang, a0, b0] : pairs) {
+    int a = uf.find(a0), b = uf.find(b0);
+    if (a == b) continue;
+    const Eigen::Matrix3d S = (scatter[static_cast<size_t>(a)] + scatter[static_cast<size_t>(b)]) /
+                              (area[static_cast<size_t>(a)] + area[static_cast<size_t>(b)]);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+    es.computeDirect(S);
+    if (!(es.eigenvalues()[0] <= max_axis)) {
+      ++rej_axis;
+      continue;
+    }
+    std::vector<int> all = faces[static_cast<size_t>(a)];
+    all.insert(all.end(), faces[static_cast<size_t>(b)].begin(), faces[static_cast<size_t>(b)].end());
+    const CircleFit c = fit_circle(all, U, es.eigenvectors().col(0).normalized());
+    // The cylinder must explain the union at least as well as the two parts' own planes explain
+    // them (pooled RMS residual): true on a curved surface, false for a flat facade and the
+    // rounded corner next to it, which are each flatter than any circle through both.
+    const PlaneFit fa = fit_plane(m[static_cast<size_t>(a)]), fb = fit_plane(m[static_cast<size_t>(b)]);
+    const double planes_rms = std::sqrt((m[static_cast<size_t>(a)].area * fa.eigenvalues[0] + m[static_cast<size_t>(b)].area * fb.eigenvalues[0]) /
+                                        (m[static_cast<size_t>(a)].area + m[static_cast<size_t>(b)].area));
+    if (!(c.rms <= p.cylinder_max_rms * p.edge) || !(c.rms <= planes_rms) || !(c.radius <= p.cylinder_max_radius * p.edge)) {
+      ++rej_circle;
+      continue;
+    }
+    if (faces[static_cast<size_t>(a)].size() < faces[static_cast<size_t>(b)].size()) std::swap(a, b);
+    uf.p[static_cast<size_t>(b)] = a;
+    faces[static_cast<size_t>(a)] = std::move(all);
+    faces[static_cast<size_t>(b)].clear();
+    scatter[static_cast<size_t>(a)] += scatter[static_cast<size_t>(b)];
+    area[static_cast<size_t>(a)] += area[static_cast<size_t>(b)];
+    m[static_cast<size_t>(a)].add(m[static_cast<size_t>(b)]);
+    ++joins;
+  }
+  for (int& r : region) r = uf.find(r);
+  n = compact_labels(region);
+  rep["cylinder_joins"] = joins;
+  rep["cylinder_rejections"] = {{"axis", rej_axis}, {"circle", rej_circle}};
+}
+
 class RegionGrowingDetector final : public Detector {
  public:
   static StageInfo info() {
@@ -840,6 +1005,11 @@ class RegionGrowingDetector final : public Detector {
         opt_int("coplanar_min_faces", 12, "Coplanar grouping: regions with at least this many faces are grouped; smaller ones are speckle").range(1, 1000000),
         opt_double("speckle_max_distance", 0.5, "Coplanar grouping: a speckle region joins a large neighbour when the RMS distance of its surface to that plane is at most this many mean edge lengths (the nearest such plane)").range(0, 1000),
         opt_double("speckle_max_fraction", 0.3, "Coplanar grouping: a speckle region joins only a neighbour with more than 1/this times its faces (a plane fitted well enough to judge it)").range(0, 1),
+        opt_bool("curved_surfaces", true, "Refinement: adjacent regions with a smooth border whose union is a cylinder (a silo, a curved facade cut into planar pieces) join"),
+        opt_double("cylinder_border_ratio", 0.6, "Curved surfaces: the border must be smooth: mean angle between the units facing each other across it at most this fraction of the angle between the two regions' normals (a crease turns all at once: ~1)").range(0, 1),
+        opt_double("cylinder_axis_angle_deg", 15, "Curved surfaces: the union's unit normals must be within this angle of perpendicular to one axis (RMS)").range(0, 90).unit("deg"),
+        opt_double("cylinder_max_rms", 0.5, "Curved surfaces: RMS distance of the union's face centroids to the fitted circle at most this many mean edge lengths").range(0, 1000),
+        opt_double("cylinder_max_radius", 50, "Curved surfaces: fitted radius at most this many mean edge lengths (a gently bent plane is left to the planar rules)").range(0, 1000000),
         opt_double("speckle_angle_deg", 45, "Coplanar grouping: a speckle region joins a large neighbour's plane only when their normals are within this angle (never across a wall/roof crease)").range(0, 90).unit("deg"),
     };
     for (OptionSpec& o : output_options()) i.options.push_back(std::move(o));
@@ -866,6 +1036,15 @@ class RegionGrowingDetector final : public Detector {
     for (size_t f = 0; f < fn.size(); ++f)
       if (U.g.face_unit[f] >= 0) U.smooth[static_cast<size_t>(U.g.face_unit[f])] += face_area_3d(*ctx.mesh, f) * fn[f];
     U.open = open_border_lengths(*ctx.mesh, *ctx.topology, U.g);
+    if (p.cylinders) {
+      const Vec3 ref = reference_point(*ctx.mesh);
+      U.face_centroid.resize(fn.size());
+      U.face_area.resize(fn.size());
+      for (size_t f = 0; f < fn.size(); ++f) {
+        U.face_centroid[f] = (ctx.mesh->corner_position(f, 0) + ctx.mesh->corner_position(f, 1) + ctx.mesh->corner_position(f, 2)) / 3.0 - ref;
+        U.face_area[f] = face_area_3d(*ctx.mesh, f);
+      }
+    }
     rep["units"] = nu;
     ctx.step(kName, 0.4);
     int n = 0;
@@ -877,6 +1056,7 @@ class RegionGrowingDetector final : public Detector {
     if (p.curved) group_curved(U, p, region, n, rep);
     if (p.jagged) absorb_small(U, p, region, n, rep);
     if (p.coplanar) group_coplanar(U, p, region, n, rep);
+    if (p.cylinders) group_cylinders(U, p, region, n, rep);
     if (p.enclosed) absorb_enclosed(U, p, region, n, rep);
     ctx.step(kName, 0.9);
     std::vector<int> face_label(ctx.mesh->faces.size(), -1);

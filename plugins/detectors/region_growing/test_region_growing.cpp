@@ -246,6 +246,27 @@ tmesh::Case recessed_window(double depth) {
   return b.build("recessed_window");
 }
 
+/// A closed cylinder (silo wall) of radius 5 m and height 8 m in 48 segments (7.5 degrees, 0.65 m)
+/// of 1 m rows, in charts of 2 x 2 quads, with vertex noise `noise` m; beside it, not touching, a
+/// 10 x 8 m flat wall. Truth: silo 0, wall 1.
+tmesh::Case silo(double noise) {
+  tmesh::Builder b(noise > 0 ? tmesh::hash_noise(noise, 7) : std::function<Vec3(const Vec3&)>{});
+  const int seg = 48, rows = 8;
+  const double R = 5;
+  auto P = [&](int s, int k) {
+    const double phi = 2 * M_PI * (s % seg) / seg;
+    return Vec3(R * std::cos(phi), R * std::sin(phi), k);
+  };
+  for (int s = 0; s < seg; ++s)
+    for (int k = 0; k < rows; ++k) {
+      const int chart = (k / 2) * (seg / 2) + s / 2;
+      b.add(P(s, k), P(s + 1, k), P(s + 1, k + 1), chart, 0);
+      b.add(P(s, k), P(s + 1, k + 1), P(s, k + 1), chart, 0);
+    }
+  b.add_grid(Vec3(10, -5, 0), Vec3(0, 10, 0), Vec3(0, 0, 8), 10, 8, 2, 2, 1000, 1);
+  return b.build("silo");
+}
+
 /// Region of the first face with truth id t.
 int region_of_truth(const tmesh::Case& c, const Regions& r, int t) {
   for (size_t f = 0; f < c.truth.size(); ++f)
@@ -364,10 +385,12 @@ TEST(DetectorsRegionGrowing, CurvedCornerDoesNotJoinTheTwoFacadesAndTheColumnSta
   const tmesh::Case c = tmesh::curved_case();
   json rep;
   const auto rg = score(c, kRG, json::object(), &rep);
-  const auto off = score(c, kRG, {{"curved_components", false}});
+  // note: curved_surfaces (large cylinders) would also make the column whole: both are off here.
+  const json no_curved = {{"curved_components", false}, {"curved_surfaces", false}};
+  const auto off = score(c, kRG, no_curved);
   const auto ag = score(c, kAG);
   const tmesh::Detection d = tmesh::run_detector(kRG, c.mesh);
-  const tmesh::Detection d_off = tmesh::run_detector(kRG, c.mesh, {{"curved_components", false}});
+  const tmesh::Detection d_off = tmesh::run_detector(kRG, c.mesh, no_curved);
   std::set<int> column, column_off;
   int a = -1, b = -1;
   for (size_t f = 0; f < c.truth.size(); ++f) {
@@ -484,4 +507,32 @@ TEST(DetectorsRegionGrowing, RecessedWindowJoinsOnlyWhenTheStepIsBelowTheOffsetT
   const tmesh::Case c = recessed_window(0.2);
   const tmesh::Detection wide = tmesh::run_detector(kRG, c.mesh, {{"absorb_enclosed", false}, {"coplanar_max_offset", 1.0}});
   EXPECT_EQ(region_of_truth(c, wide.regions, 0), region_of_truth(c, wide.regions, 1));
+}
+
+TEST(DetectorsRegionGrowing, SiloCutIntoPlanarPiecesBecomesOneRegion) {
+  // Growth with a 25-degree threshold cuts the silo into pieces of about 50 degrees; their borders
+  // are smooth (7.5 degrees between facets) and the union is a cylinder, so curved_surfaces joins
+  // them. The small-curved-component rule cannot: each piece is over 2% of the area.
+  for (const double noise : {0.0, 0.05}) {
+    const tmesh::Case c = silo(noise);
+    ASSERT_EQ(c.mesh.faces.size(), 2u * 48 * 8 + 160);
+    json rep;
+    const auto on = score(c, kRG, json::object(), &rep);
+    const auto off = score(c, kRG, {{"curved_surfaces", false}});
+    EXPECT_GE(off.over_segmented, 1) << noise;   // the silo is split without the refinement
+    EXPECT_EQ(on.regions, 2) << noise;           // silo and wall
+    EXPECT_DOUBLE_EQ(on.accuracy, 1.0) << noise;
+    EXPECT_GE(rep["cylinder_joins"].get<int>(), 2) << noise;
+  }
+}
+
+TEST(DetectorsRegionGrowing, CurvedSurfacesLeaveABoxBuildingsCreasesAlone) {
+  // Four walls around a vertical axis have normals perpendicular to it, as a cylinder's do; their
+  // borders are creases (the whole 90-degree turn happens there), so none joins.
+  const tmesh::Case c = tmesh::building_case(4000);
+  json rep;
+  const auto s = score(c, kRG, {{"cylinder_max_rms", 1000.0}}, &rep);
+  EXPECT_EQ(rep["cylinder_joins"], 0);
+  EXPECT_EQ(s.under_segmented, 0);
+  EXPECT_GE(s.accuracy, 0.99);
 }
