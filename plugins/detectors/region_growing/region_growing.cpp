@@ -62,6 +62,7 @@ struct Params {
   double coplanar_max_offset = 0.25;  // mean edge lengths
   double coplanar_max_rms = 0.5;      // mean edge lengths
   int coplanar_min_faces = 12;
+  double coplanar_min_coherence = 0.5;
   double speckle_angle = 45 * M_PI / 180;
   double speckle_max_distance = 0.5;  // mean edge lengths
   double speckle_max_fraction = 0.3;
@@ -103,6 +104,7 @@ Params read_params(const Options& o) {
   p.coplanar_max_offset = o.get_double("coplanar_max_offset");
   p.coplanar_max_rms = o.get_double("coplanar_max_rms");
   p.coplanar_min_faces = static_cast<int>(o.get_int("coplanar_min_faces"));
+  p.coplanar_min_coherence = o.get_double("coplanar_min_coherence");
   p.speckle_angle = o.get_double("speckle_angle_deg") * M_PI / 180;
   p.speckle_max_distance = o.get_double("speckle_max_distance");
   p.speckle_max_fraction = o.get_double("speckle_max_fraction");
@@ -292,6 +294,13 @@ bool fits_plane(const PlaneMoments& m, const Vec3& n, const PlaneFit& f, const V
                 const Params& p) {
   if (!f.valid || normal_angle(n, rn) >= max_angle) return false;
   return plane_rms_distance(m, f.centroid, rn) <= p.max_plane_distance * p.edge;
+}
+
+/// Whether the face normals of a set agree (|sum of area-weighted face normals| / area at least
+/// coplanar_min_coherence): 1 for a plane, ~0.9 for a noisy photogrammetric facade, low for a
+/// tree crown or clutter whose faces point every way.
+bool coherent(const PlaneMoments& m, const Params& p) {
+  return m.area > 0 && m.normal_sum.norm() >= p.coplanar_min_coherence * m.area;
 }
 
 /// Patch-based growing (section 2.1.2). Units without area are left unassigned (-1).
@@ -669,6 +678,8 @@ void group_coplanar(const Units& U, const Params& p, std::vector<int>& region, i
   const double offset_tol = p.coplanar_max_offset * p.edge, rms_tol = p.coplanar_max_rms * p.edge;
   const double speckle_tol = p.speckle_max_distance * p.edge;
   auto large = [&](int r) { return m[static_cast<size_t>(r)].faces >= p.coplanar_min_faces; };
+  // A region whose face normals do not agree (a tree crown, clutter) has no plane to group by.
+  auto planar = [&](int r) { return large(r) && coherent(m[static_cast<size_t>(r)], p); };
   auto normal_of = [&](int r, const PlaneFit& f) {
     return reliable_normal(m[static_cast<size_t>(r)], f, smooth[static_cast<size_t>(r)], p);
   };
@@ -745,27 +756,32 @@ void group_coplanar(const Units& U, const Params& p, std::vector<int>& region, i
       if (uf.find(r) != r) continue;
       const std::map<int, double>& nb = nbs[static_cast<size_t>(r)];
       if (large(r)) {
-        for (const auto& [t, l] : nb)
-          if (large(t)) consider(r, t, false);
+        if (planar(r))
+          for (const auto& [t, l] : nb)
+            if (planar(t)) consider(r, t, false);
         // A large region smaller than two large neighbours bridges them (a pilaster band).
         std::vector<int> around;
         for (const auto& [t, l] : nb)
-          if (large(t) && m[static_cast<size_t>(t)].faces > m[static_cast<size_t>(r)].faces) around.push_back(t);
+          if (planar(t) && m[static_cast<size_t>(t)].faces > m[static_cast<size_t>(r)].faces) around.push_back(t);
         pairs_around(around);
         continue;
       }
       // A connected cluster of small regions (speckle) bridges every large region around it.
       if (flooded[static_cast<size_t>(r)]) continue;
-      std::vector<int> cluster{r}, around;
+      std::vector<int> cluster{r}, around, touched_large;
       flooded[static_cast<size_t>(r)] = 1;
       for (size_t k = 0; k < cluster.size(); ++k)
         for (const auto& [t, l] : nbs[static_cast<size_t>(cluster[k])]) {
           if (flooded[static_cast<size_t>(t)]) continue;
           flooded[static_cast<size_t>(t)] = 1;
-          if (large(t)) around.push_back(t);
-          else cluster.push_back(t);
+          if (large(t)) {
+            touched_large.push_back(t);
+            if (planar(t)) around.push_back(t);
+          } else {
+            cluster.push_back(t);
+          }
         }
-      for (int t : around) flooded[static_cast<size_t>(t)] = 0;  // large ones may border other clusters
+      for (int t : touched_large) flooded[static_cast<size_t>(t)] = 0;  // large ones may border other clusters
       pairs_around(around);
     }
     std::sort(pairs.begin(), pairs.end());
@@ -792,7 +808,7 @@ void group_coplanar(const Units& U, const Params& p, std::vector<int>& region, i
       int best = -1;
       double best_d = 0;
       for (const auto& [t, l] : neighbours(s)) {
-        if (!large(t) || !(ms.faces < p.speckle_max_fraction * m[static_cast<size_t>(t)].faces)) continue;
+        if (!planar(t) || !(ms.faces < p.speckle_max_fraction * m[static_cast<size_t>(t)].faces)) continue;
         const PlaneFit ft = fit_plane(m[static_cast<size_t>(t)]);
         if (!ft.valid) continue;
         const Vec3 nt = normal_of(t, ft);
@@ -904,7 +920,9 @@ void group_cylinders(const Units& U, const Params& p, std::vector<int>& region, 
     for (int i = g.adj_offset[static_cast<size_t>(u)]; i < g.adj_offset[static_cast<size_t>(u) + 1]; ++i) {
       const int v = g.adj[static_cast<size_t>(i)];
       const int a = region[static_cast<size_t>(u)], b = region[static_cast<size_t>(v)];
-      if (a >= b || rs.m[static_cast<size_t>(a)].faces < p.coplanar_min_faces || rs.m[static_cast<size_t>(b)].faces < p.coplanar_min_faces) continue;
+      if (a >= b || rs.m[static_cast<size_t>(a)].faces < p.coplanar_min_faces || rs.m[static_cast<size_t>(b)].faces < p.coplanar_min_faces ||
+          !coherent(rs.m[static_cast<size_t>(a)], p) || !coherent(rs.m[static_cast<size_t>(b)], p))
+        continue;
       const double len = g.adj_length[static_cast<size_t>(i)];
       auto& e = border[{a, b}];
       e.first += len * normal_angle(un[static_cast<size_t>(u)], un[static_cast<size_t>(v)]);
@@ -1003,6 +1021,7 @@ class RegionGrowingDetector final : public Detector {
         opt_double("coplanar_max_offset", 0.25, "Coplanar grouping: each region's offset from the union's plane (RMS distance beyond its own residual: tilt and shift) at most this many mean edge lengths; a parallel step larger than this stays apart").range(0, 1000),
         opt_double("coplanar_max_rms", 0.5, "Coplanar grouping: RMS residual of the union's plane fit at most this many mean edge lengths").range(0, 1000),
         opt_int("coplanar_min_faces", 12, "Coplanar grouping: regions with at least this many faces are grouped; smaller ones are speckle").range(1, 1000000),
+        opt_double("coplanar_min_coherence", 0.5, "Coplanar grouping and curved surfaces: a region takes part only when its face normals agree: |sum of area-weighted face normals| / area at least this (trees and clutter do not)").range(0, 1),
         opt_double("speckle_max_distance", 0.5, "Coplanar grouping: a speckle region joins a large neighbour when the RMS distance of its surface to that plane is at most this many mean edge lengths (the nearest such plane)").range(0, 1000),
         opt_double("speckle_max_fraction", 0.3, "Coplanar grouping: a speckle region joins only a neighbour with more than 1/this times its faces (a plane fitted well enough to judge it)").range(0, 1),
         opt_bool("curved_surfaces", true, "Refinement: adjacent regions with a smooth border whose union is a cylinder (a silo, a curved facade cut into planar pieces) join"),
