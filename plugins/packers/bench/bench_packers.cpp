@@ -60,7 +60,7 @@ const Fixture& fixture(int count) {
   return fx;
 }
 
-void BM_Pack(benchmark::State& state, const std::string& name) {
+void BM_Pack(benchmark::State& state, const std::string& name, const json& options = json::object()) {
   Registry& reg = Registry::instance();
   reg.load_plugins();
   const StageInfo* info = reg.find(name);
@@ -70,7 +70,7 @@ void BM_Pack(benchmark::State& state, const std::string& name) {
   }
   const Fixture& fx = fixture(static_cast<int>(state.range(0)));
   std::unique_ptr<Stage> st = reg.create(name);
-  st->set_options(default_options(*info));
+  st->set_options(default_options(*info, options));
   auto* packer = dynamic_cast<Packer*>(st.get());
   double eff = 0;
   for (auto _ : state) {
@@ -95,6 +95,12 @@ void BM_Pack(benchmark::State& state, const std::string& name) {
 }  // namespace
 
 BENCHMARK_CAPTURE(BM_Pack, square_tetris, std::string("packers.square_tetris"))->Arg(10000)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Pack, square_tetris_tail0, std::string("packers.square_tetris"), json{{"tail_side", 0}})
+    ->Arg(10000)
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Pack, square_tetris_tail256, std::string("packers.square_tetris"), json{{"tail_side", 256}})
+    ->Arg(10000)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Pack, tetris, std::string("packers.tetris"))->Arg(10000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Pack, shelf, std::string("packers.shelf"))->Arg(10000)->Unit(benchmark::kMillisecond);
 

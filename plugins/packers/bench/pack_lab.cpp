@@ -7,7 +7,7 @@
 //
 // CACHE.atlas is written when missing (detector + merger of CONFIG) and read otherwise. Each
 // PACKER (e.g. packers.square_tetris:gutter=4,width_trials=8) is run on the cached atlas; one line
-// per packer: model, packer, charts, efficiency, MP, ms.
+// per packer: model, packer, charts, efficiency, output MP, input MP, wall ms, CPU ms.
 #include "texdefrag/core/charts.h"
 #include "texdefrag/core/topology.h"
 #include "texdefrag/io/obj.h"
@@ -15,6 +15,7 @@
 #include "texdefrag/stage/registry.h"
 
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -134,12 +135,14 @@ int main(int argc, char** argv) {
       json rep = json::object();
       pc.report = &rep;
       const auto t0 = std::chrono::steady_clock::now();
+      const std::clock_t c0 = std::clock();
       dynamic_cast<Packer&>(*st).pack(pc);
+      const double cpu_ms = 1000.0 * static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       double mp = 0;
       for (const auto& ps : pc.layout.pages) mp += static_cast<double>(ps.width) * ps.height / 1e6;
-      std::printf("%s\t%s\t%d\t%.3f\t%.3f\t%.2f\t%.0f\n", model.c_str(), spec.c_str(), ctx.atlas.num_charts,
-                  rep.value("packing_efficiency", 0.0), mp, in_mp, ms);
+      std::printf("%s\t%s\t%d\t%.3f\t%.3f\t%.2f\t%.0f\t%.0f\n", model.c_str(), spec.c_str(), ctx.atlas.num_charts,
+                  rep.value("packing_efficiency", 0.0), mp, in_mp, ms, cpu_ms);
     }
   } catch (const std::exception& e) {
     std::cerr << e.what() << "\n";

@@ -24,6 +24,7 @@
 #include <chrono>
 #include <climits>
 #include <limits>
+#include <map>
 #include <tuple>
 
 namespace texdefrag {
@@ -201,6 +202,9 @@ struct RunMask {
   std::vector<std::vector<std::pair<int, int>>> rows;  ///< (a, len) per row
   bool duplicate = false;
   int wide_row = 0, wide_a = 0, wide_len = 0;  ///< the longest run (checked first)
+  std::vector<std::pair<int, int>> longest;     ///< (row, its longest run), longest first
+  std::vector<std::tuple<int, int, int>> checks;  ///< every run (row, a, len), in checking order
+  int shape = -1;  ///< masks with the same cells share a shape id (RasterPage's resume rows)
 };
 
 RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s) {
@@ -218,118 +222,171 @@ RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s) {
       if (e - x > r.wide_len) { r.wide_row = y; r.wide_a = x; r.wide_len = e - x; }
       x = e;
     }
+  for (int y = 0; y < m.height; ++y) {
+    int k = 0;
+    for (const auto& run : r.rows[static_cast<size_t>(y)]) k = std::max(k, run.second);
+    if (k > 0) r.longest.emplace_back(y, k);
+  }
+  std::stable_sort(r.longest.begin(), r.longest.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
+  // Checking order of the runs: the widest row, the bottom and top rows, then rows spread by
+  // bisection (neighbouring rows of an outline mostly fail together).
+  std::vector<int> order;
+  std::vector<uint8_t> seen(static_cast<size_t>(m.height), 0);
+  auto add = [&](int y) {
+    if (y >= 0 && y < m.height && !seen[static_cast<size_t>(y)]) { seen[static_cast<size_t>(y)] = 1; order.push_back(y); }
+  };
+  add(r.wide_row);
+  add(0);
+  add(m.height - 1);
+  for (int step = m.height / 2; step >= 1; step /= 2)
+    for (int y = step; y < m.height; y += step) add(y);
+  for (int y = 0; y < m.height; ++y) add(y);
+  for (int y : order)
+    for (const auto& [a, len] : r.rows[static_cast<size_t>(y)]) r.checks.emplace_back(y, a, len);
   return r;
 }
 
-/// A page's occupancy for the outline tail: per row, run lengths (> 0: free cells from here to the
-/// right, <= 0: minus the occupied cells from here), and each row's longest free run. Rows above
-/// the allocated ones are empty.
+/// A page's occupancy for the outline tail: per row, its free runs (sorted intervals), its longest
+/// free run, and per block of rows the longest free run (to skip rows that cannot hold a mask's
+/// widest row). Rows above the allocated ones are empty. Filling a run splits at most one interval.
 class RasterPage {
  public:
   RasterPage(int width, int height) : width_(width), height_(height) {}
   int used() const { return used_; }
 
   void fill_rect(int x, int y, int w, int h) {
-    for (int r = y; r < y + h; ++r) {
-      ensure(r);
-      auto& row = occ_[static_cast<size_t>(r)];
-      std::fill(row.begin() + x, row.begin() + x + w, uint8_t{1});
-      rebuild(r);
-    }
+    for (int r = y; r < y + h; ++r) occupy(r, x, x + w);
     used_ = std::max(used_, y + h);
   }
   void fill_mask(const RunMask& m, int x, int y) {
-    for (int r = 0; r < m.h; ++r) {
-      if (m.rows[static_cast<size_t>(r)].empty()) continue;
-      ensure(y + r);
-      auto& row = occ_[static_cast<size_t>(y + r)];
-      for (const auto& [a, len] : m.rows[static_cast<size_t>(r)])
-        std::fill(row.begin() + x + a, row.begin() + x + a + len, uint8_t{1});
-      rebuild(y + r);
-    }
+    for (int r = 0; r < m.h; ++r)
+      for (const auto& [a, len] : m.rows[static_cast<size_t>(r)]) occupy(y + r, x + a, x + a + len);
     used_ = std::max(used_, y + m.h);
   }
 
   /// Lowest (then leftmost) position where mask m fits with its top at most max_top; false if none.
-  bool first_fit(const RunMask& m, int max_top, int& bx, int& by) const {
+  /// note: cells only ever become occupied, so a mask never fits below a row where it (or a mask
+  /// with the same cells) did not fit before: the search resumes there (resume_, per shape id).
+  bool first_fit(const RunMask& m, int max_top, int& bx, int& by) {
     if (m.w > width_ || m.wide_len == 0) return false;
     max_top = std::min(max_top, height_);
-    const int rw = m.wide_row, aw = m.wide_a, kw = m.wide_len;
-    for (int y = 0; y + m.h <= max_top; ++y) {
-      if (y + rw >= static_cast<int>(occ_.size())) {  // the widest row is above the used rows
-        for (int x = 0; x + m.w <= width_;) {
-          int jump = 0;
-          if (fits(m, x, y, jump)) { bx = x; by = y; return true; }
-          x += jump;
+    const int rows = static_cast<int>(free_.size());
+    int start = 0;
+    if (m.shape >= 0) {
+      if (resume_.size() <= static_cast<size_t>(m.shape)) resume_.resize(static_cast<size_t>(m.shape) + 1, 0);
+      start = resume_[static_cast<size_t>(m.shape)];
+    }
+    auto found = [&](int x, int y) {
+      if (m.shape >= 0) resume_[static_cast<size_t>(m.shape)] = y;
+      bx = x;
+      by = y;
+      return true;
+    };
+    for (int y = start; y + m.h <= max_top; ++y) {
+      // Each mask row needs a page row whose longest free run holds its longest run: skip to the
+      // next y where the first row that cannot (longest runs first) can.
+      int skip = -1;
+      constexpr size_t kFilterRows = 4;  // the rest is left to leftmost_at
+      for (size_t i = 0; i < std::min(kFilterRows, m.longest.size()); ++i) {
+        const auto& [r, k] = m.longest[i];
+        if (y + r >= rows) continue;
+        if (maxrun_[static_cast<size_t>(y + r)] < k) {
+          skip = next_row(y + r, k) - r;
+          break;
         }
+      }
+      if (skip >= 0) {
+        y = skip - 1;
         continue;
       }
-      const size_t yw = static_cast<size_t>(y + rw);
-      if (maxrun_[yw] < kw) continue;
-      // Candidate x: the widest row's interval inside a free run of row y + rw that is long enough.
-      for (const auto& [s0, v] : free_[yw]) {
-        if (v < kw) continue;
-        const int xlo = std::max(0, s0 - aw), xhi = std::min(width_ - m.w, s0 + v - kw - aw);
-        for (int x = xlo; x <= xhi;) {
-          int jump = 0;
-          if (fits(m, x, y, jump)) { bx = x; by = y; return true; }
-          x += jump;
-        }
-      }
+      const int x = leftmost_at(m, y);
+      if (x >= 0) return found(x, y);
     }
+    if (m.shape >= 0) resume_[static_cast<size_t>(m.shape)] = std::max(start, max_top - m.h + 1);
     return false;
   }
 
  private:
-  /// Whether m fits at (x, y); otherwise jump = how far x may advance (> 0).
-  bool fits(const RunMask& m, int x, int y, int& jump) const {
-    for (int r = 0; r < m.h; ++r) {
+  struct Run {
+    int a, b;  ///< free cells [a, b)
+  };
+  static constexpr int kBlock = 64;  ///< rows per block of the longest-run maxima
+
+  /// Leftmost x where m fits with its lower-left corner at row y, or -1.
+  /// note: the set of offsets where every run of m lies in a free run, as sorted intervals,
+  /// intersected run by run (in m.checks order: widest, bottom, top, then spread rows) until it is
+  /// empty or every run was checked; each intersection touches only the free runs in its span.
+  int leftmost_at(const RunMask& m, int y) const {
+    std::vector<Run>& X = cand_;
+    std::vector<Run>& next = scratch_;
+    X.assign(1, Run{0, width_ - m.w + 1});
+    for (const auto& [r, a, len] : m.checks) {
       const size_t yr = static_cast<size_t>(y + r);
-      if (yr >= run_.size()) return true;
-      const auto& run = run_[yr];
-      for (const auto& [a, len] : m.rows[static_cast<size_t>(r)]) {
-        const int v = run[static_cast<size_t>(x + a)];
-        if (v <= 0) { jump = -v; return false; }
-        if (v < len) { jump = v + 1; return false; }
+      if (yr >= free_.size()) continue;  // an empty row
+      const std::vector<Run>& row = free_[yr];
+      next.clear();
+      // the free runs that can hold [x + a, x + a + len) for some x in X
+      auto it = std::upper_bound(row.begin(), row.end(), X.front().a + a, [](int v, const Run& f) { return v < f.b; });
+      size_t i = 0;
+      for (; it != row.end() && it->a + (-a) < X.back().b; ++it) {
+        if (it->b - it->a < len) continue;
+        const int lo = it->a - a, hi = it->b - len - a + 1;  // allowed x: [lo, hi)
+        while (i < X.size() && X[i].b <= lo) ++i;
+        for (size_t j = i; j < X.size() && X[j].a < hi; ++j) {
+          const int l = std::max(lo, X[j].a), h = std::min(hi, X[j].b);
+          if (l < h) next.push_back(Run{l, h});
+        }
       }
+      if (next.empty()) return -1;
+      std::swap(X, next);
     }
-    return true;
+    return X.front().a;
   }
-  void ensure(int r) {
-    while (static_cast<int>(occ_.size()) <= r) {
-      occ_.emplace_back(static_cast<size_t>(width_), uint8_t{0});
-      run_.emplace_back(static_cast<size_t>(width_), 0);
-      free_.emplace_back();
+  /// First row >= from whose longest free run is at least k (rows above the used ones are free).
+  int next_row(int from, int k) const {
+    const int rows = static_cast<int>(free_.size());
+    int r = from;
+    while (r < rows) {
+      if (r % kBlock == 0 && blockmax_[static_cast<size_t>(r / kBlock)] < k) {
+        r += kBlock;
+        continue;
+      }
+      if (maxrun_[static_cast<size_t>(r)] >= k) return r;
+      ++r;
+    }
+    return rows;
+  }
+  /// Marks cells [a, b) of row r occupied.
+  void occupy(int r, int a, int b) {
+    while (static_cast<int>(free_.size()) <= r) {
+      free_.push_back({Run{0, width_}});
       maxrun_.push_back(width_);
-      rebuild(static_cast<int>(occ_.size()) - 1);
+      if (blockmax_.size() * kBlock < free_.size()) blockmax_.push_back(width_);
     }
-  }
-  void rebuild(int r) {
-    const auto& o = occ_[static_cast<size_t>(r)];
-    auto& run = run_[static_cast<size_t>(r)];
-    int best = 0, cur = 0;
-    bool curfree = true;
-    for (int x = width_; x-- > 0;) {
-      const bool f = o[static_cast<size_t>(x)] == 0;
-      if (x == width_ - 1 || f != curfree) { cur = 0; curfree = f; }
-      ++cur;
-      run[static_cast<size_t>(x)] = f ? cur : -cur;
-      if (f) best = std::max(best, cur);
+    std::vector<Run>& row = free_[static_cast<size_t>(r)];
+    auto it = std::upper_bound(row.begin(), row.end(), a, [](int v, const Run& f) { return v < f.b; });
+    while (it != row.end() && it->a < b) {
+      const Run f = *it;
+      it = row.erase(it);
+      if (f.b > b) it = row.insert(it, Run{b, f.b});
+      if (f.a < a) it = std::next(row.insert(it, Run{f.a, a}));
+      if (f.b > b) break;
     }
+    int best = 0;
+    for (const Run& f : row) best = std::max(best, f.b - f.a);
     maxrun_[static_cast<size_t>(r)] = best;
-    auto& fr = free_[static_cast<size_t>(r)];
-    fr.clear();
-    for (int x = 0; x < width_;) {
-      const int v = run[static_cast<size_t>(x)];
-      if (v > 0) fr.emplace_back(x, v);
-      x += v > 0 ? v : -v;
-    }
+    const size_t blk = static_cast<size_t>(r / kBlock);
+    const int r0 = static_cast<int>(blk) * kBlock, r1 = std::min(static_cast<int>(free_.size()), r0 + kBlock);
+    int bm = 0;
+    for (int i = r0; i < r1; ++i) bm = std::max(bm, maxrun_[static_cast<size_t>(i)]);
+    blockmax_[blk] = bm;
   }
   int width_, height_, used_ = 0;
-  std::vector<std::vector<uint8_t>> occ_;
-  std::vector<std::vector<int>> run_;
-  std::vector<int> maxrun_;
-  std::vector<std::vector<std::pair<int, int>>> free_;  ///< per row: free runs (start, length), left to right
+  std::vector<std::vector<Run>> free_;  ///< per row: free runs, left to right
+  std::vector<int> maxrun_;             ///< per row: longest free run
+  std::vector<int> blockmax_;           ///< per block of kBlock rows: longest free run
+  mutable std::vector<Run> cand_, scratch_;  ///< leftmost_at's offset sets
+  std::vector<int> resume_;                  ///< per mask shape: lowest row where it may still fit
 };
 
 /// tail: charts from order[tail] on are small; they are placed by their dilated outline at the lowest
@@ -502,6 +559,7 @@ class SquareTetris : public Packer {
       --tail;
     }
     std::vector<std::vector<RunMask>> profiles(in.charts.size());
+    std::map<std::vector<int>, int> shapes;  // tail masks' cells -> shape id
     for (size_t n = 0; n < order.size(); ++n) {
       const PackChart& c = in.charts[static_cast<size_t>(order[n])];
       const std::vector<packing::Profile> pr = packing::make_profiles(c, s);
@@ -509,6 +567,13 @@ class SquareTetris : public Packer {
       for (size_t q = 0; q < pr.size(); ++q) {
         out.push_back(pr[q].duplicate ? RunMask{} : make_run_mask(c, static_cast<int>(q), s));
         out.back().duplicate = pr[q].duplicate;
+        if (pr[q].duplicate || n < tail) continue;
+        std::vector<int> key{out.back().w, out.back().h};
+        for (const auto& row : out.back().rows) {
+          key.push_back(-1);
+          for (const auto& [a, len] : row) { key.push_back(a); key.push_back(len); }
+        }
+        out.back().shape = shapes.emplace(std::move(key), static_cast<int>(shapes.size())).first->second;
       }
     }
     // note: once a width gives one page, later widths stop as soon as they cannot beat its area
