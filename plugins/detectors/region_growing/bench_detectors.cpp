@@ -7,13 +7,13 @@
 
 using namespace texdefrag;
 
-static void run(benchmark::State& state, const char* name) {
+static void run(benchmark::State& state, const char* name, const json& overrides = json::object()) {
   const auto c = detectors::testmesh::building_case(static_cast<int>(state.range(0)));
   Registry& reg = Registry::instance();
   reg.load_plugins();
   auto stage = reg.create(name);
   auto* det = dynamic_cast<Detector*>(stage.get());
-  det->set_options(default_options(*reg.find(name)));
+  det->set_options(default_options(*reg.find(name), overrides));
   const Topology topo = build_topology(c.mesh);
   const ChartSet charts = build_charts(c.mesh, topo);
   for (auto _ : state) {
@@ -30,7 +30,12 @@ static void run(benchmark::State& state, const char* name) {
   state.counters["faces"] = static_cast<double>(c.mesh.faces.size());
 }
 static void BM_RegionGrowing(benchmark::State& s) { run(s, "detectors.region_growing"); }
+static void BM_RegionGrowingNoGrouping(benchmark::State& s) {
+  // The refinements before coplanar grouping and curved surfaces (docs/detectors.md, refinements 9-10).
+  run(s, "detectors.region_growing", {{"coplanar_grouping", false}, {"curved_surfaces", false}});
+}
 static void BM_AngleGrowing(benchmark::State& s) { run(s, "detectors.angle_growing"); }
 BENCHMARK(BM_RegionGrowing)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RegionGrowingNoGrouping)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_AngleGrowing)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();
