@@ -393,9 +393,9 @@ class RasterPage {
 /// free position of the page (RasterPage), with `profiles` (outline run masks per turn) per chart id.
 PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, const std::vector<int>& order,
                               size_t tail, const std::vector<std::vector<RunMask>>& profiles,
-                              int width, double bound, const StageContext& ctx) {
+                              int width, packing::TrialBound& bound, const StageContext& ctx) {
   PackResult r;
-  int used_w = 0, used_h = 0;  // page 0's used size so far (as size_pages measures it)
+  bound.start();
   r.placements.assign(in.charts.size(), Placement{});
   std::vector<PageState> pages;
   std::vector<RasterPage> rasters;  // the pages' occupancy once the tail starts
@@ -507,15 +507,11 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
       }
       r.placements[static_cast<size_t>(c.id)] = Placement{static_cast<int>(p), at.x + lo, at.y + lo, best_q};
       placed = true;
-      if (p == 0) {
-        used_w = std::max(used_w, at.x + lo + c.w[best_q] + s.gutter - lo);
-        used_h = std::max(used_h, at.y + lo + c.h[best_q] + s.gutter - lo);
-      }
+      bound.placed(c, r.placements[static_cast<size_t>(c.id)], s);
     }
     // A better single-page width was already found: this width cannot beat it (pages only grow).
-    if (bound < std::numeric_limits<double>::infinity() &&
-        (pages.size() > 1 || static_cast<double>(packing::round_page_side(used_w, s)) * packing::round_page_side(used_h, s) >= bound)) {
-      r.pages = std::max(2, static_cast<int>(pages.size()) + 1);
+    if (bound.hopeless(pages.size(), s)) {
+      packing::TrialBound::lose(r, pages.size());
       return r;
     }
     if (!placed)
@@ -560,7 +556,9 @@ class SquareTetris : public Packer {
     }
     std::vector<std::vector<RunMask>> profiles(in.charts.size());
     std::map<std::vector<int>, int> shapes;  // tail masks' cells -> shape id
-    for (size_t n = 0; n < order.size(); ++n) {
+    // Outline masks: the tail's, and the outlines that charts placed as rectangles occupy on the
+    // tail's raster; none without a tail (rectangles only).
+    for (size_t n = 0; n < order.size() && tail < order.size(); ++n) {
       const PackChart& c = in.charts[static_cast<size_t>(order[n])];
       const std::vector<packing::Profile> pr = packing::make_profiles(c, s);
       auto& out = profiles[static_cast<size_t>(order[n])];
@@ -578,11 +576,11 @@ class SquareTetris : public Packer {
     }
     // note: once a width gives one page, later widths stop as soon as they cannot beat its area
     // (same result as packing them fully; t016_L19: ~2x faster).
-    double bound = std::numeric_limits<double>::infinity();
+    packing::TrialBound bound;
     const PackResult r = packing::pack_best_width(in, s, [&](int width) {
       PackResult t = pack_square_tetris(in, s, order, tail, profiles, width, bound, ctx);
       packing::size_pages(in, s, t);
-      if (t.pages == 1) bound = std::min(bound, t.total_area());
+      bound.record(t);
       return t;
     });
     ctx.step(name, 1.0);

@@ -34,11 +34,12 @@ using packing::Profile;
 
 PackResult pack_tetris(const PackInput& in, const CommonSettings& s, const std::vector<int>& order,
                        const std::vector<std::vector<Profile>>& profiles, int width,
-                       const StageContext& ctx) {
+                       packing::TrialBound& bound, const StageContext& ctx) {
   PackResult r;
   r.placements.assign(in.charts.size(), Placement{});
   std::vector<Horizon> horizons;
   const int lo = s.gutter / 2;
+  bound.start();
   for (size_t n = 0; n < order.size(); ++n) {
     if ((n & 255) == 0) ctx.step("packers.tetris", static_cast<double>(n) / static_cast<double>(order.size()));
     const int id = order[n];
@@ -65,7 +66,12 @@ PackResult pack_tetris(const PackInput& in, const CommonSettings& s, const std::
       const Profile& p = profs[static_cast<size_t>(best_q)];
       hz.place(p, best);
       r.placements[static_cast<size_t>(id)] = Placement{static_cast<int>(pg), best.x + lo, best.y + lo, best_q};
+      bound.placed(in.charts[static_cast<size_t>(id)], r.placements[static_cast<size_t>(id)], s);
       placed = true;
+    }
+    if (bound.hopeless(horizons.size(), s)) {
+      packing::TrialBound::lose(r, horizons.size());
+      return r;
     }
     if (!placed)
       throw StageError("packers.tetris: chart " + std::to_string(id) + " fits no page of width " +
@@ -98,8 +104,15 @@ class Tetris : public Packer {
     std::vector<std::vector<Profile>> profiles(in.charts.size());
     // note: index = quarter turn; an orientation too large for the page never finds a drop.
     for (int id : order) profiles[static_cast<size_t>(id)] = packing::make_profiles(in.charts[static_cast<size_t>(id)], s);
-    const PackResult r = packing::pack_best_width(
-        in, s, [&](int width) { return pack_tetris(in, s, order, profiles, width, ctx); });
+    // note: once a width gives one page, later widths stop as soon as they cannot beat its area
+    // (packing::TrialBound; same result as packing them fully).
+    packing::TrialBound bound;
+    const PackResult r = packing::pack_best_width(in, s, [&](int width) {
+      PackResult t = pack_tetris(in, s, order, profiles, width, bound, ctx);
+      packing::size_pages(in, s, t);
+      bound.record(t);
+      return t;
+    });
     ctx.step(name, 1.0);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     packing::write_layout(ctx, in, r, ms);

@@ -279,6 +279,24 @@ PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
   return best;
 }
 
+void TrialBound::placed(const PackChart& c, const Placement& p, const CommonSettings& s) {
+  if (p.page != 0) return;
+  const int hi = s.gutter - s.gutter / 2;
+  used_w_ = std::max(used_w_, p.x + c.w[p.q] + hi);
+  used_h_ = std::max(used_h_, p.y + c.h[p.q] + hi);
+}
+
+bool TrialBound::hopeless(size_t pages, const CommonSettings& s) const {
+  if (best_single_ < 0) return false;
+  return pages > 1 || static_cast<double>(round_page_side(used_w_, s)) * round_page_side(used_h_, s) >= best_single_;
+}
+
+void TrialBound::lose(PackResult& r, size_t pages) { r.pages = std::max(2, static_cast<int>(pages) + 1); }
+
+void TrialBound::record(const PackResult& r) {
+  if (r.pages == 1 && (best_single_ < 0 || r.total_area() < best_single_)) best_single_ = r.total_area();
+}
+
 double PackResult::total_area() const {
   double a = 0;
   for (const auto& p : sizes) a += static_cast<double>(p.width) * p.height;

@@ -125,6 +125,28 @@ struct PackResult {
 PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
                            const std::function<PackResult(int width)>& pack_with_width);
 
+/// Early stop of pack_best_width's width trials, with the same result as packing every width in
+/// full: once one width packed everything on a single page, a later trial that opens a second
+/// page, or whose page 0 already needs at least that page's area, cannot win (pages only grow;
+/// ties keep the earlier width). Used by packers.tetris and packers.square_tetris.
+class TrialBound {
+ public:
+  /// Starts a trial (page 0 empty).
+  void start() { used_w_ = used_h_ = 0; }
+  /// Notes chart c placed with p (its page-0 footprint as size_pages trims it).
+  void placed(const PackChart& c, const Placement& p, const CommonSettings& s);
+  /// Whether the running trial, with `pages` pages open, cannot beat the recorded single page.
+  bool hopeless(size_t pages, const CommonSettings& s) const;
+  /// Marks a trial stopped as hopeless as losing (more pages than the recorded single page).
+  static void lose(PackResult& r, size_t pages);
+  /// Records a finished trial, sized (size_pages).
+  void record(const PackResult& r);
+
+ private:
+  double best_single_ = -1;  ///< texels^2 of the best single page so far, < 0: none yet
+  int used_w_ = 0, used_h_ = 0;
+};
+
 /// Cell box size of chart c in orientation q grown by the gutter (texels).
 inline int padded_w(const PackChart& c, int q, const CommonSettings& s) { return c.w[q] + s.gutter; }
 inline int padded_h(const PackChart& c, int q, const CommonSettings& s) { return c.h[q] + s.gutter; }
