@@ -1,7 +1,9 @@
 // note: GCC 12 reports a false -Wmaybe-uninitialized inside OpenMesh's property vectors
 // (VectorT's default constructor leaves its storage uninitialised on purpose) when they are
 // inlined here; it is not about our code.
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 
 #include "texdefrag/core/chart_mesh.h"
 
