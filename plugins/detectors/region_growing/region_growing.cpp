@@ -10,9 +10,10 @@
 // within the angle threshold of the region's refitted plane normal and its CPI passes; restart while
 // units remain. Then: elongated strips are dissolved into their neighbours, small smoothly curved
 // pieces are grouped into one component, small regions join the neighbouring region whose plane they
-// fit (tiny ones the one with more faces), and small regions or clusters enclosed by one region join
-// it whatever their angle (our addition, docs/detectors.md refinement 10), after coplanar regions were
-// grouped and speckle lying on their planes joined them (refinement 9).
+// fit (tiny ones the one with more faces); then (our additions, docs/detectors.md refinements 9-11)
+// coplanar regions are grouped and speckle lying on their planes joins them, pieces of one cylinder
+// (silos, curved facades) are joined across smooth borders, and small regions or clusters enclosed
+// by one region join it whatever their angle.
 #include "common/normals.h"
 #include "common/planarity.h"
 #include "common/region_output.h"
@@ -552,7 +553,7 @@ void absorb_small(const Units& U, const Params& p, std::vector<int>& region, int
   rep["jagged_faces_moved"] = moved_faces;
 }
 
-/// Refinement (enclosed regions, our addition for the paper's intent that details end up inside
+/// Refinement 11 (enclosed regions, our addition for the paper's intent that details end up inside
 /// their facade's region): a region whose border is at least enclosed_border_fraction shared with
 /// one neighbouring region (border = edges shared with other regions plus its open edges) and that
 /// has fewer than enclosed_max_fraction of that neighbour's faces joins it, whatever its angle.
