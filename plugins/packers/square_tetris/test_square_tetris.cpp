@@ -41,7 +41,7 @@ TEST(PackersSquareTetris, FillsEnclosedSpaces) {
       {{0, 0}, {30, 0}, {30, 30}, {0, 30}},
       {{0, 0}, {30, 0}, {30, 30}, {0, 30}},
   };
-  auto run = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}});
+  auto run = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}, {"tail_side", 0}});
   expect_valid_layout(*run, 4);
   EXPECT_GE(run->report.at("hole_fills").get<int>(), 1);
 }
@@ -80,7 +80,7 @@ TEST(PackersSquareTetris, FreeRotationOfMergedChart) {
   EXPECT_EQ(fixed->report.at("charts_rotated_free").get<int>(), 0);
 }
 
-TEST(PackersSquareTetris, BeatsTetrisAndShelfOnBuildingCharts) {
+TEST(PackersSquareTetris, BeatsTetrisShelfAndRectanglesOnBuildingCharts) {
   std::mt19937 rng(5);
   const auto polys = building_polygons(rng, 600, 4096);
   auto st = run_packer(kName, polygon_mesh(polys, 4096));
@@ -89,6 +89,12 @@ TEST(PackersSquareTetris, BeatsTetrisAndShelfOnBuildingCharts) {
   auto te = run_packer("packers.tetris", polygon_mesh(polys, 4096));
   const double e_te = layout_efficiency(*te);
   EXPECT_GE(e_st, e_te);
+  // The default outline tail packs at least as well as the paper's rectangles only (tail_side 0).
+  auto rect = run_packer(kName, polygon_mesh(polys, 4096), {{"tail_side", 0}});
+  expect_valid_layout(*rect, 4);
+  const double e_rect = layout_efficiency(*rect);
+  EXPECT_GE(e_st, e_rect);
+  std::cout << "building charts: square_tetris tail_side 0 " << e_rect << "\n";
   if (Registry::instance().find("packers.shelf")) {
     auto sh = run_packer("packers.shelf", polygon_mesh(polys, 4096));
     EXPECT_GE(e_st, layout_efficiency(*sh));
@@ -109,7 +115,7 @@ TEST(PackersSquareTetris, OutlineTailNestsSmallCharts) {
   // side by side (at least 208 x 104 texels); in the outline tail (tail_side 200 > 104) the second
   // one, turned by 180 degrees, nests against the first's hypotenuse, so the page is smaller.
   const std::vector<std::vector<Vec2>> polys = {{{0, 0}, {100, 0}, {0, 100}}, {{200, 0}, {300, 0}, {200, 100}}};
-  auto rect = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}});
+  auto rect = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}, {"tail_side", 0}});
   expect_valid_layout(*rect, 4);
   EXPECT_EQ(rect->report.at("outline_drops").get<int>(), 0);
   auto tail = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}, {"tail_side", 200}});
