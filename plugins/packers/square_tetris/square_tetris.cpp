@@ -205,6 +205,7 @@ struct RunMask {
   std::vector<std::pair<int, int>> longest;     ///< (row, its longest run), longest first
   std::vector<std::tuple<int, int, int>> checks;  ///< every run (row, a, len), in checking order
   int shape = -1;  ///< masks with the same cells share a shape id (RasterPage's resume rows)
+  int core_w = 0, core_h = 0, core_y = 0;  ///< a solid rectangle inside the mask: size, lowest row
 };
 
 RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s) {
@@ -243,6 +244,28 @@ RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s) {
   for (int y = 0; y < m.height; ++y) add(y);
   for (int y : order)
     for (const auto& [a, len] : r.rows[static_cast<size_t>(y)]) r.checks.emplace_back(y, a, len);
+  // Core: the longest run of one of the 4 longest rows, extended up and down over the rows that
+  // contain it; the largest such rectangle.
+  auto contains = [&](int y, int a, int len) {
+    for (const auto& [b, l] : r.rows[static_cast<size_t>(y)])
+      if (b <= a && a + len <= b + l) return true;
+    return false;
+  };
+  for (size_t i = 0; i < std::min<size_t>(4, r.longest.size()); ++i) {
+    const int y = r.longest[i].first;
+    for (const auto& [a, len] : r.rows[static_cast<size_t>(y)]) {
+      if (len != r.longest[i].second) continue;
+      int y0 = y, y1 = y + 1;
+      while (y0 > 0 && contains(y0 - 1, a, len)) --y0;
+      while (y1 < m.height && contains(y1, a, len)) ++y1;
+      if (static_cast<long long>(len) * (y1 - y0) > static_cast<long long>(r.core_w) * r.core_h) {
+        r.core_w = len;
+        r.core_h = y1 - y0;
+        r.core_y = y0;
+      }
+      break;
+    }
+  }
   return r;
 }
 
@@ -275,6 +298,15 @@ class RasterPage {
     if (m.shape >= 0) {
       if (resume_.size() <= static_cast<size_t>(m.shape)) resume_.resize(static_cast<size_t>(m.shape) + 1, 0);
       start = resume_[static_cast<size_t>(m.shape)];
+    }
+    // m fits at row y only if its core rectangle fits at row y + core_y.
+    if (m.core_w > 0) {
+      const int yc = lowest_rect(m.core_w, m.core_h, start + m.core_y, max_top - m.h + m.core_y);
+      if (yc < 0) {
+        if (m.shape >= 0) resume_[static_cast<size_t>(m.shape)] = std::max(start, max_top - m.h + 1);
+        return false;
+      }
+      start = yc - m.core_y;
     }
     auto found = [&](int x, int y) {
       if (m.shape >= 0) resume_[static_cast<size_t>(m.shape)] = y;
@@ -341,6 +373,40 @@ class RasterPage {
       std::swap(X, next);
     }
     return X.front().a;
+  }
+  /// Lowest row y in [from, last] such that rows y .. y + h - 1 share a free interval of w cells
+  /// (a free w x h rectangle at row y), or -1.
+  /// note: rows are checked from the top of the rectangle down; when rows y + r .. y + h - 1 have
+  /// no common free w-interval, no rectangle whose rows include them fits, so y jumps to y + r + 1.
+  int lowest_rect(int w, int h, int from, int last) const {
+    std::vector<Run>& X = cand_;
+    std::vector<Run>& next = scratch_;
+    const int rows = static_cast<int>(free_.size());
+    for (int y = std::max(0, from); y <= last;) {
+      X.assign(1, Run{0, width_ - w + 1});
+      int fail = -1;
+      for (int r = std::min(h, rows - y) - 1; r >= 0; --r) {
+        const std::vector<Run>& row = free_[static_cast<size_t>(y + r)];
+        if (maxrun_[static_cast<size_t>(y + r)] < w) { fail = r; break; }
+        next.clear();
+        auto it = std::upper_bound(row.begin(), row.end(), X.front().a, [](int v, const Run& f) { return v < f.b; });
+        size_t i = 0;
+        for (; it != row.end() && it->a < X.back().b; ++it) {
+          if (it->b - it->a < w) continue;
+          const int lo = it->a, hi = it->b - w + 1;
+          while (i < X.size() && X[i].b <= lo) ++i;
+          for (size_t j = i; j < X.size() && X[j].a < hi; ++j) {
+            const int l = std::max(lo, X[j].a), hh = std::min(hi, X[j].b);
+            if (l < hh) next.push_back(Run{l, hh});
+          }
+        }
+        if (next.empty()) { fail = r; break; }
+        std::swap(X, next);
+      }
+      if (fail < 0) return y;
+      y += fail + 1;
+    }
+    return -1;
   }
   /// First row >= from whose longest free run is at least k (rows above the used ones are free).
   int next_row(int from, int k) const {
