@@ -310,15 +310,22 @@ std::vector<Profile> make_profiles(const PackChart& c, const CommonSettings& s) 
   const Mask m = c.raster(0);
   std::vector<int> cb(static_cast<size_t>(m.width), INT_MAX), ct(static_cast<size_t>(m.width), 0);
   std::vector<int> rl(static_cast<size_t>(m.height), INT_MAX), rr(static_cast<size_t>(m.height), 0);
-  for (int y = 0; y < m.height; ++y) {
+  // note: rows top down, branch-free per column (vectorised): the last row seen is the bottom.
+  int* cbp = cb.data();
+  int* ctp = ct.data();
+  for (int y = m.height - 1; y >= 0; --y) {
     const uint8_t* row = m.cells.data() + static_cast<size_t>(y) * static_cast<size_t>(m.width);
-    for (int x = 0; x < m.width; ++x)
-      if (row[x]) {
-        if (cb[static_cast<size_t>(x)] == INT_MAX) cb[static_cast<size_t>(x)] = y;
-        ct[static_cast<size_t>(x)] = y + 1;
-        if (rl[static_cast<size_t>(y)] == INT_MAX) rl[static_cast<size_t>(y)] = x;
-        rr[static_cast<size_t>(y)] = x + 1;
-      }
+    for (int x = 0; x < m.width; ++x) {
+      cbp[x] = row[x] ? y : cbp[x];
+      ctp[x] = row[x] && ctp[x] == 0 ? y + 1 : ctp[x];
+    }
+    int x0 = 0, x1 = m.width;
+    while (x0 < m.width && !row[x0]) ++x0;
+    while (x1 > x0 && !row[x1 - 1]) --x1;
+    if (x0 < x1) {
+      rl[static_cast<size_t>(y)] = x0;
+      rr[static_cast<size_t>(y)] = x1;
+    }
   }
   std::vector<Profile> profs;
   for (int q = 0; q < (s.allow_rotation ? 4 : 1); ++q) {
