@@ -57,7 +57,7 @@ struct Params {
   int tiny_region_faces = 3;
   bool enclosed = true;
   double enclosed_max_fraction = 0.1;
-  double enclosed_border_fraction = 0.9;
+  double enclosed_border_fraction = 0.75;
   bool coplanar = true;
   double coplanar_angle = 20 * M_PI / 180;
   double coplanar_max_offset = 0.25;  // mean edge lengths
@@ -1016,7 +1016,7 @@ class RegionGrowingDetector final : public Detector {
         opt_int("tiny_region_faces", 3, "Regions with at most this many faces that fit no neighbour join the neighbour with the most faces").range(0, 1000000),
         opt_bool("absorb_enclosed", true, "Refinement: a small region enclosed by one neighbouring region (a balcony or window reveal inside its facade) joins it whatever its angle"),
         opt_double("enclosed_max_fraction", 0.1, "An enclosed region joins only when it has fewer than this fraction of the enclosing region's faces").range(0, 1),
-        opt_double("enclosed_border_fraction", 0.9, "Enclosed: at least this fraction of the region's border (shared edges plus open mesh edges, 3D length) is shared with one region").range(0.5, 1),
+        opt_double("enclosed_border_fraction", 0.75, "Enclosed: at least this fraction of the region's border (shared edges plus open mesh edges, 3D length) is shared with one region").range(0.5, 1),
         opt_bool("coplanar_grouping", true, "Refinement: join coplanar regions (adjacent or separated by a smaller region) and let small regions lying on a large neighbour's plane join it"),
         opt_double("coplanar_angle_deg", 20, "Coplanar grouping: fitted normals of the two regions within this angle").range(0, 90).unit("deg"),
         opt_double("coplanar_max_offset", 0.25, "Coplanar grouping: each region's offset from the union's plane (RMS distance beyond its own residual: tilt and shift) at most this many mean edge lengths; a parallel step larger than this stays apart").range(0, 1000),

@@ -303,7 +303,8 @@ TEST(DetectorsRegionGrowing, EnclosedClusterOfTwoRegionsJoinsItsWall) {
   // The same wall with a 4 x 1 m hole (152 faces) closed by two wedges meeting at x = 5: wedge 1
   // sticks out at the bottom, wedge 2 at the top (panels 90 degrees apart: they never grow
   // together); each has its own end triangle at x = 5 and the two share only the edge
-  // (5,0,2)-(5,0,3). Border of each: 5 m wall, 1 m the other wedge: 5/6 < 0.9, not enclosed alone;
+  // (5,0,2)-(5,0,3). Border of each: 5 m wall, 1 m the other wedge: 5/6 < 0.9 (set here; the default
+  // is 0.75), not enclosed alone;
   // together: 10 m, all wall: enclosed. 20 faces < 0.2 * 152.
   tmesh::Builder b;
   const int next = add_wall_with_hole(b, 4);
@@ -313,6 +314,7 @@ TEST(DetectorsRegionGrowing, EnclosedClusterOfTwoRegionsJoinsItsWall) {
   ASSERT_EQ(c.mesh.faces.size(), 172u);
   json on_opts = kEnclosedIso;
   on_opts["enclosed_max_fraction"] = 0.2;
+  on_opts["enclosed_border_fraction"] = 0.9;  // 5/6 of each wedge's border is wall: alone, not enclosed
   json off_opts = on_opts;
   off_opts["absorb_enclosed"] = false;
   const auto off = score(c, kRG, off_opts);
@@ -338,8 +340,13 @@ TEST(DetectorsRegionGrowing, DeclaresOptionsAndRejectsOutOfRange) {
   EXPECT_EQ(o.get_string("write_labels"), "");
   EXPECT_TRUE(o.get_bool("absorb_enclosed"));
   EXPECT_EQ(o.get_double("enclosed_max_fraction"), 0.1);
-  EXPECT_EQ(o.get_double("enclosed_border_fraction"), 0.9);
+  EXPECT_EQ(o.get_double("enclosed_border_fraction"), 0.75);
   EXPECT_THROW(default_options(*info, {{"enclosed_border_fraction", 0.4}}), std::invalid_argument);
+  EXPECT_TRUE(o.get_bool("coplanar_grouping"));
+  EXPECT_TRUE(o.get_bool("curved_surfaces"));
+  EXPECT_EQ(o.get_double("coplanar_max_offset"), 0.25);
+  EXPECT_THROW(default_options(*info, {{"coplanar_angle_deg", 91}}), std::invalid_argument);
+  EXPECT_THROW(default_options(*info, {{"speckle_max_fraction", 1.5}}), std::invalid_argument);
   EXPECT_THROW(default_options(*info, {{"angle_threshold_deg", 95}}), std::invalid_argument);
   EXPECT_THROW(default_options(*info, {{"angle_treshold_deg", 20}}), std::invalid_argument);
 }
