@@ -479,10 +479,7 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
     const PackChart& c = in.charts[static_cast<size_t>(order[n])];
     const int min_side = suffix_min[n + 1];
     const int nq = s.allow_rotation ? 2 : 1;
-    bool placed = false;
-    for (size_t p = 0; p <= pages.size() && !placed; ++p) {
-      const bool fresh = p == pages.size();
-      if (fresh) pages.emplace_back(width, s.max_page_size);
+    packing::place_on_pages(pages, [&] { return PageState(width, s.max_page_size); }, [&](size_t p) {
       PageState& pg = pages[p];
       // 1. enclosed unused spaces first.
       long long best = -1;
@@ -535,8 +532,7 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
           }
         }
         if (!found) {
-          if (fresh) break;
-          continue;
+          return false;
         }
         rp.fill_mask(profs[static_cast<size_t>(best_q)], bx, by);
         ++r.outline_drops;
@@ -562,8 +558,7 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
           }
         }
         if (!found) {
-          if (fresh) break;  // does not fit even an empty page: reported below
-          continue;
+          return false;  // does not fit even an empty page: place_on_pages reports it
         }
         at = pg.place_on_horizon(bx, by, packing::padded_w(c, best_q, s), packing::padded_h(c, best_q, s), min_side);
       }
@@ -572,17 +567,14 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
         boxes[p].emplace_back(c.id, best_q, at);
       }
       r.placements[static_cast<size_t>(c.id)] = Placement{static_cast<int>(p), at.x + lo, at.y + lo, best_q};
-      placed = true;
       bound.placed(c, r.placements[static_cast<size_t>(c.id)], s);
-    }
+      return true;
+    }, "packers.square_tetris", c.id, width);
     // A better single-page width was already found: this width cannot beat it (pages only grow).
     if (bound.hopeless(pages.size(), s)) {
       packing::TrialBound::lose(r, pages.size());
       return r;
     }
-    if (!placed)
-      throw StageError("packers.square_tetris: chart " + std::to_string(c.id) + " fits no page of width " +
-                       std::to_string(width));
   }
   r.pages = static_cast<int>(pages.size());
   return r;

@@ -44,10 +44,7 @@ PackResult pack_tetris(const PackInput& in, const CommonSettings& s, const std::
     if ((n & 255) == 0) ctx.step("packers.tetris", static_cast<double>(n) / static_cast<double>(order.size()));
     const int id = order[n];
     const auto& profs = profiles[static_cast<size_t>(id)];
-    bool placed = false;
-    for (size_t pg = 0; pg <= horizons.size() && !placed; ++pg) {
-      const bool fresh = pg == horizons.size();
-      if (fresh) horizons.emplace_back(width);
+    packing::place_on_pages(horizons, [&] { return Horizon(width); }, [&](size_t pg) {
       Horizon& hz = horizons[pg];
       Drop best;
       int best_q = 0;
@@ -59,23 +56,17 @@ PackResult pack_tetris(const PackInput& in, const CommonSettings& s, const std::
           best_q = static_cast<int>(q);
         }
       }
-      if (!best.found) {
-        if (fresh) break;
-        continue;
-      }
+      if (!best.found) return false;
       const Profile& p = profs[static_cast<size_t>(best_q)];
       hz.place(p, best);
       r.placements[static_cast<size_t>(id)] = Placement{static_cast<int>(pg), best.x + lo, best.y + lo, best_q};
       bound.placed(in.charts[static_cast<size_t>(id)], r.placements[static_cast<size_t>(id)], s);
-      placed = true;
-    }
+      return true;
+    }, "packers.tetris", id, width);
     if (bound.hopeless(horizons.size(), s)) {
       packing::TrialBound::lose(r, horizons.size());
       return r;
     }
-    if (!placed)
-      throw StageError("packers.tetris: chart " + std::to_string(id) + " fits no page of width " +
-                       std::to_string(width));
   }
   r.pages = static_cast<int>(horizons.size());
   return r;

@@ -9,6 +9,20 @@
 
 namespace texdefrag::packing {
 
+namespace {
+
+/// Fills p.filled, p.bmax and p.bsum from p.bottom.
+void summarise(Profile& p) {
+  for (int b : p.bottom) {
+    if (b == INT_MAX) continue;
+    p.bmax = std::max(p.bmax, b);
+    p.bsum += b;
+    ++p.filled;
+  }
+}
+
+}  // namespace
+
 Profile make_profile(const PackChart& c, int q, const CommonSettings& s) {
   const Mask m = dilate(c.raster(q), s.gutter / 2, s.gutter - s.gutter / 2);
   Profile p;
@@ -25,12 +39,7 @@ Profile make_profile(const PackChart& c, int q, const CommonSettings& s) {
         p.top[static_cast<size_t>(x)] = y + 1;
       }
   }
-  for (int b : p.bottom) {
-    if (b == INT_MAX) continue;
-    p.bmax = std::max(p.bmax, b);
-    p.bsum += b;
-    ++p.filled;
-  }
+  summarise(p);
   return p;
 }
 
@@ -293,12 +302,7 @@ Profile turned_profile(const std::vector<int>& cb, const std::vector<int>& ct, c
       p.top[o] = std::max(p.top[o], top[static_cast<size_t>(x)] + r);
     }
   }
-  for (int b : p.bottom) {
-    if (b == INT_MAX) continue;
-    p.bmax = std::max(p.bmax, b);
-    p.bsum += b;
-    ++p.filled;
-  }
+  summarise(p);
   return p;
 }
 

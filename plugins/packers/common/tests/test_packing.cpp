@@ -200,3 +200,27 @@ TEST(PackersCommon, InitialWidthFromArea) {
   EXPECT_EQ(initial_page_width(100.0, 500, 1.0, s), 512);  // at least the widest chart
   EXPECT_EQ(initial_page_width(1e12, 10, 1.0, s), 8192);   // at most max_page_size
 }
+
+TEST(PackersCommon, PlaceOnPagesFillsInOrderAndOpensPages) {
+  // Pages hold a capacity; a chart goes to the first page with room, else to a new page.
+  std::vector<int> room;
+  auto make = [] { return 10; };
+  auto put = [&](int size) {
+    return place_on_pages(room, make, [&](size_t p) {
+      if (room[p] < size) return false;
+      room[p] -= size;
+      return true;
+    }, "packers.test", size, 10);
+  };
+  EXPECT_EQ(put(6), 0u);
+  EXPECT_EQ(put(6), 1u);  // page 0 has 4 left
+  EXPECT_EQ(put(3), 0u);
+  EXPECT_EQ(put(4), 1u);
+  EXPECT_EQ(room, (std::vector<int>{1, 0}));
+  try {
+    put(11);  // refused by a new page too
+    FAIL() << "no error";
+  } catch (const StageError& e) {
+    EXPECT_STREQ(e.what(), "packers.test: chart 11 fits no page of width 10");
+  }
+}

@@ -147,6 +147,24 @@ class TrialBound {
   int used_w_ = 0, used_h_ = 0;
 };
 
+/// Places one chart on the first page that takes it, pages in order, opening a page when none
+/// does (the page loop of packers.tetris and packers.square_tetris).
+/// pages: the open pages (any container with size() and push_back). make_page(): a new empty page.
+/// try_page(p): places the chart on page p and returns true, or returns false leaving it unchanged.
+/// Returns the page index; throws StageError "<stage>: chart <chart> fits no page of width <width>"
+/// when even a new page refuses the chart.
+template <class Pages, class MakePage, class TryPage>
+size_t place_on_pages(Pages& pages, MakePage&& make_page, TryPage&& try_page, const std::string& stage, int chart,
+                      int width) {
+  for (size_t p = 0;; ++p) {
+    const bool fresh = p == pages.size();
+    if (fresh) pages.push_back(make_page());
+    if (try_page(p)) return p;
+    if (fresh)
+      throw StageError(stage + ": chart " + std::to_string(chart) + " fits no page of width " + std::to_string(width));
+  }
+}
+
 /// Cell box size of chart c in orientation q grown by the gutter (texels).
 inline int padded_w(const PackChart& c, int q, const CommonSettings& s) { return c.w[q] + s.gutter; }
 inline int padded_h(const PackChart& c, int q, const CommonSettings& s) { return c.h[q] + s.gutter; }
