@@ -1025,12 +1025,12 @@ class RegionGrowingDetector final : public Detector {
         opt_double("coplanar_min_coherence", 0.5, "Coplanar grouping and curved surfaces: a region takes part only when its face normals agree: |sum of area-weighted face normals| / area at least this (trees and clutter do not)").range(0, 1),
         opt_double("speckle_max_distance", 0.5, "Coplanar grouping: a speckle region joins a large neighbour when the RMS distance of its surface to that plane is at most this many mean edge lengths (the nearest such plane)").range(0, 1000),
         opt_double("speckle_max_fraction", 0.3, "Coplanar grouping: a speckle region joins only a neighbour with more than 1/this times its faces (a plane fitted well enough to judge it)").range(0, 1),
+        opt_double("speckle_angle_deg", 45, "Coplanar grouping: a speckle region joins a large neighbour's plane only when their normals are within this angle (never across a wall/roof crease)").range(0, 90).unit("deg"),
         opt_bool("curved_surfaces", true, "Refinement: adjacent regions with a smooth border whose union is a cylinder (a silo, a curved facade cut into planar pieces) join"),
         opt_double("cylinder_border_ratio", 0.6, "Curved surfaces: the border must be smooth: mean angle between the units facing each other across it at most this fraction of the angle between the two regions' normals (a crease turns all at once: ~1)").range(0, 1),
         opt_double("cylinder_axis_angle_deg", 15, "Curved surfaces: the union's unit normals must be within this angle of perpendicular to one axis (RMS)").range(0, 90).unit("deg"),
         opt_double("cylinder_max_rms", 0.5, "Curved surfaces: RMS distance of the union's face centroids to the fitted circle at most this many mean edge lengths").range(0, 1000),
         opt_double("cylinder_max_radius", 50, "Curved surfaces: fitted radius at most this many mean edge lengths (a gently bent plane is left to the planar rules)").range(0, 1000000),
-        opt_double("speckle_angle_deg", 45, "Coplanar grouping: a speckle region joins a large neighbour's plane only when their normals are within this angle (never across a wall/roof crease)").range(0, 90).unit("deg"),
     };
     for (OptionSpec& o : output_options()) i.options.push_back(std::move(o));
     i.create = [] { return std::make_unique<RegionGrowingDetector>(); };
