@@ -938,8 +938,9 @@ void group_cylinders(const Units& U, const Params& p, std::vector<int>& region, 
     const size_t a = static_cast<size_t>(k.first), b = static_cast<size_t>(k.second);
     const double turn = normal_angle(reliable_normal(rs.m[a], rs.fit[a], rs.smooth[a], p),
                                      reliable_normal(rs.m[b], rs.fit[b], rs.smooth[b], p));
+    if (!(turn > 0)) continue;
     const double sharpness = e.first / e.second / turn;
-    if (turn > 0 && sharpness <= p.cylinder_border_ratio) pairs.emplace_back(sharpness, k.first, k.second);
+    if (sharpness <= p.cylinder_border_ratio) pairs.emplace_back(sharpness, k.first, k.second);
   }
   std::sort(pairs.begin(), pairs.end());
   const double max_axis = std::pow(std::sin(p.cylinder_axis_angle), 2);
