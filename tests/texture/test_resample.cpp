@@ -716,6 +716,22 @@ TEST(TextureResample, LeastSquaresFitBeatsSamplingOnRotatedCharts) {
     std::printf("  rotation %.0f deg: sample %.2f dB, least squares %.2f dB\n", deg, psnr[0], psnr[1]);
     EXPECT_GT(psnr[1], psnr[0] + 1.0) << deg;
   }
+  // Pages are fitted in windows of 1024 texels: a chart across a window border gains as much.
+  const double a = 0.5;
+  const auto across = [a](const Vec2& p) -> Vec2 {
+    const Vec2 d = p - Vec2(32, 32);
+    return Vec2(1024.3 + std::cos(a) * d.x() - std::sin(a) * d.y(), 1030.6 + std::sin(a) * d.x() + std::cos(a) * d.y());
+  };
+  double psnr[2];
+  for (int k = 0; k < 2; ++k) {
+    Scene s;
+    const int in = s.add_input_page(img);
+    s.add_rect(s.add_chart(in, s.add_output_page(1100, 1100)), 8, 8, 56, 56, across);
+    const auto pages = s.run(fit_opts(k ? TexelFit::LeastSquares : TexelFit::Sample));
+    psnr[k] = rect_psnr(img, pages[0], 8, 56, 0.0, across);
+  }
+  std::printf("  across a fit window border: sample %.2f dB, least squares %.2f dB\n", psnr[0], psnr[1]);
+  EXPECT_GT(psnr[1], psnr[0] + 1.0);
 }
 
 TEST(TextureResample, LeastSquaresFitKeepsLinearRampsAndCopiedTexels) {

@@ -514,33 +514,62 @@ std::array<float, 16> cell_matrix(int mask) {
   return M;
 }
 
+/// Texels per side of the windows the fit is solved in: each window's fitted texels are the
+/// unknowns, every texel outside it keeps its current value (windows are solved in raster order,
+/// so a window sees its fitted predecessors). Bounds the fit's memory (about 60 bytes per texel of
+/// a window) whatever the page size.
+constexpr int kFitWindow = 1024;
+
+/// The fit over the fitted texels of the window [X0, X1) x [Y0, Y1) (texel indices, row 0 at the
+/// top). Returns the number of texels fitted.
 template <int C>
-size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<const Image*>& inputs, int iterations,
-                         Canvas& cv) {
+size_t fit_window(const std::vector<FaceJob>& jobs, const std::vector<const Image*>& inputs, int iterations,
+                  Canvas& cv, int X0, int Y0, int X1, int Y1) {
   const int W = cv.w, H = cv.h;
-  const size_t n = static_cast<size_t>(W) * static_cast<size_t>(H);
-  // Fitted texels: written by a resampled face (interior or border), not copied.
-  std::vector<int> uid(n, -1);
+  const int ww = X1 - X0, wh = Y1 - Y0;
+  // Fitted texels of the window: written by a resampled face (interior or border), not copied.
+  std::vector<int> uid(static_cast<size_t>(ww) * static_cast<size_t>(wh), -1);
   std::vector<size_t> texel_of;
-  for (size_t t = 0; t < n; ++t)
-    if ((cv.state[t] & kCoverMask) && !(cv.state[t] & kCopied)) {
-      uid[t] = static_cast<int>(texel_of.size());
-      texel_of.push_back(t);
+  for (int y = Y0; y < Y1; ++y)
+    for (int x = X0; x < X1; ++x) {
+      const size_t t = cv.index(x, y);
+      if ((cv.state[t] & kCoverMask) && !(cv.state[t] & kCopied)) {
+        uid[static_cast<size_t>(y - Y0) * static_cast<size_t>(ww) + static_cast<size_t>(x - X0)] = static_cast<int>(texel_of.size());
+        texel_of.push_back(t);
+      }
     }
   const size_t U = texel_of.size();
   if (U == 0) return 0;
+  auto uid_at = [&](int x, int y) {
+    return x < X0 || x >= X1 || y < Y0 || y >= Y1
+               ? -1
+               : uid[static_cast<size_t>(y - Y0) * static_cast<size_t>(ww) + static_cast<size_t>(x - X0)];
+  };
 
-  // Cells: cell (m, q), m in [-1, W-1], q in [-1, H-1], spans grid [m, m+1] x [q, q+1] (grid: texel
-  // centres at integers, row index downwards); its corners clamp to the page (clamp-to-edge reads).
-  const size_t cw = static_cast<size_t>(W) + 1;
-  std::vector<uint8_t> cmask(cw * (static_cast<size_t>(H) + 1), 0);
-  auto corner = [&](long long m, long long q, int k) {
-    const int x = clampi(m + (k & 1), W - 1), y = clampi(q + (k >> 1), H - 1);
-    return static_cast<size_t>(y) * static_cast<size_t>(W) + static_cast<size_t>(x);
+  // Cells: cell (m, q) spans grid [m, m+1] x [q, q+1] (grid: texel centres at integers, row index
+  // downwards); its corners clamp to the page (clamp-to-edge reads). The window's cells are those
+  // with a corner in it: m in [X0-1, X1-1], q in [Y0-1, Y1-1], within [-1, W-1] x [-1, H-1].
+  const long long cm0 = std::max(X0 - 1, -1), cm1 = std::min(X1 - 1, W - 1);
+  const long long cq0 = std::max(Y0 - 1, -1), cq1 = std::min(Y1 - 1, H - 1);
+  const size_t cw = static_cast<size_t>(cm1 - cm0 + 1);
+  std::vector<uint8_t> cmask(cw * static_cast<size_t>(cq1 - cq0 + 1), 0);
+  auto corner_xy = [&](long long m, long long q, int k, int& x, int& y) {
+    x = clampi(m + (k & 1), W - 1);
+    y = clampi(q + (k >> 1), H - 1);
   };
   std::vector<float> rhs(U * C, 0.f);
   for (const FaceJob& job : jobs) {
     const auto& o = job.out;
+    // Corners in grid coordinates; skip faces whose box misses the window's cells.
+    std::array<Vec2, 3> g;
+    for (int k = 0; k < 3; ++k) g[static_cast<size_t>(k)] = Vec2(o[static_cast<size_t>(k)].x() - 0.5, H - o[static_cast<size_t>(k)].y() - 0.5);
+    const double gxmin = std::min({g[0].x(), g[1].x(), g[2].x()}), gxmax = std::max({g[0].x(), g[1].x(), g[2].x()});
+    const double gymin = std::min({g[0].y(), g[1].y(), g[2].y()}), gymax = std::max({g[0].y(), g[1].y(), g[2].y()});
+    const long long m0 = std::max<long long>(cm0, static_cast<long long>(std::floor(gxmin)));
+    const long long m1 = std::min<long long>(cm1, static_cast<long long>(std::floor(gxmax)));
+    const long long q0 = std::max<long long>(cq0, static_cast<long long>(std::floor(gymin)));
+    const long long q1 = std::min<long long>(cq1, static_cast<long long>(std::floor(gymax)));
+    if (m0 > m1 || q0 > q1) continue;
     const Vec2 e1 = o[1] - o[0], e2 = o[2] - o[0];
     const double det = e1.x() * e2.y() - e1.y() * e2.x();
     const double longest2 = std::max({e1.squaredNorm(), e2.squaredNorm(), (o[2] - o[1]).squaredNorm()});
@@ -551,9 +580,6 @@ size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<con
     src.px = in.pixels.data();
     src.w = in.width;
     src.h = in.height;
-    // Corners in grid coordinates; edge functions positive inside.
-    std::array<Vec2, 3> g;
-    for (int k = 0; k < 3; ++k) g[static_cast<size_t>(k)] = Vec2(o[static_cast<size_t>(k)].x() - 0.5, H - o[static_cast<size_t>(k)].y() - 0.5);
     const double sgn = det > 0 ? -1.0 : 1.0;  // the y flip reverses the orientation
     auto inside = [&](double px, double py) {
       for (int k = 0; k < 3; ++k) {
@@ -563,23 +589,19 @@ size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<con
       }
       return true;
     };
-    const double gxmin = std::min({g[0].x(), g[1].x(), g[2].x()}), gxmax = std::max({g[0].x(), g[1].x(), g[2].x()});
-    const double gymin = std::min({g[0].y(), g[1].y(), g[2].y()}), gymax = std::max({g[0].y(), g[1].y(), g[2].y()});
-    const long long m0 = std::max<long long>(-1, static_cast<long long>(std::floor(gxmin)));
-    const long long m1 = std::min<long long>(W - 1, static_cast<long long>(std::floor(gxmax)));
-    const long long q0 = std::max<long long>(-1, static_cast<long long>(std::floor(gymin)));
-    const long long q1 = std::min<long long>(H - 1, static_cast<long long>(std::floor(gymax)));
     const double Hi = in.height;
     for (long long q = q0; q <= q1; ++q)
       for (long long m = m0; m <= m1; ++m) {
-        size_t cidx[4];
+        int ids[4];
         bool touches = false;
         for (int k = 0; k < 4; ++k) {
-          cidx[k] = corner(m, q, k);
-          touches = touches || uid[cidx[k]] >= 0;
+          int x, y;
+          corner_xy(m, q, k, x, y);
+          ids[k] = uid_at(x, y);
+          touches = touches || ids[k] >= 0;
         }
         if (!touches) continue;
-        uint8_t& cm = cmask[static_cast<size_t>(q + 1) * cw + static_cast<size_t>(m + 1)];
+        uint8_t& cm = cmask[static_cast<size_t>(q - cq0) * cw + static_cast<size_t>(m - cm0)];
         for (int b = 0; b < 2; ++b)
           for (int a = 0; a < 2; ++a) {
             const int bit = 1 << (2 * b + a);
@@ -592,10 +614,9 @@ size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<con
             src.bilinear_f(u - 0.5, Hi - v - 0.5, target);
             const double wx[2] = {1 - kGauss[a], kGauss[a]}, wy[2] = {1 - kGauss[b], kGauss[b]};
             for (int k = 0; k < 4; ++k) {
-              const int id = uid[cidx[k]];
-              if (id < 0) continue;
+              if (ids[k] < 0) continue;
               const float w = static_cast<float>(wx[k & 1] * wy[k >> 1]);
-              for (int c = 0; c < C; ++c) rhs[static_cast<size_t>(id) * C + static_cast<size_t>(c)] += w * target[c];
+              for (int c = 0; c < C; ++c) rhs[static_cast<size_t>(ids[k]) * C + static_cast<size_t>(c)] += w * target[c];
             }
           }
       }
@@ -613,13 +634,15 @@ size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<con
   const uint8_t* px = cv.img->pixels.data();
   for (size_t ci = 0; ci < cmask.size(); ++ci) {
     if (!cmask[ci]) continue;
-    const long long m = static_cast<long long>(ci % cw) - 1, q = static_cast<long long>(ci / cw) - 1;
+    const long long m = static_cast<long long>(ci % cw) + cm0, q = static_cast<long long>(ci / cw) + cq0;
     Cell cell;
     cell.mask = cmask[ci];
     size_t cidx[4];
     for (int k = 0; k < 4; ++k) {
-      cidx[k] = corner(m, q, k);
-      cell.id[k] = uid[cidx[k]];
+      int x, y;
+      corner_xy(m, q, k, x, y);
+      cidx[k] = cv.index(x, y);
+      cell.id[k] = uid_at(x, y);
     }
     const std::array<float, 16>& M = mats[cell.mask];
     for (int k = 0; k < 4; ++k) {
@@ -634,6 +657,7 @@ size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<con
     }
     cells.push_back(cell);
   }
+  cmask = std::vector<uint8_t>();
   const float lambda = kFitRegularisation * 16.f / 9.f;
   std::vector<float> x(U * C);
   for (size_t u = 0; u < U; ++u)
@@ -661,14 +685,15 @@ size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<con
       }
     }
   };
-  std::vector<float> r(U * C), z(U * C), p(U * C), Kp(U * C);
+  // Jacobi-preconditioned conjugate gradients; r starts as rhs - K x (rhs is not needed after).
+  std::vector<float>& r = rhs;
+  std::vector<float> p(U * C), Kp(U * C);
   apply(x, Kp);
   double rz = 0, r0 = 0;
   for (size_t i = 0; i < r.size(); ++i) {
-    r[i] = rhs[i] - Kp[i];
-    z[i] = r[i] / diag[i / C];
-    p[i] = z[i];
-    rz += static_cast<double>(r[i]) * z[i];
+    r[i] -= Kp[i];
+    p[i] = r[i] / diag[i / C];
+    rz += static_cast<double>(r[i]) * p[i];
     r0 += static_cast<double>(r[i]) * r[i];
   }
   for (int it = 0; it < iterations && rz > 0; ++it) {
@@ -681,19 +706,30 @@ size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<con
     for (size_t i = 0; i < r.size(); ++i) {
       x[i] += alpha * p[i];
       r[i] -= alpha * Kp[i];
-      z[i] = r[i] / diag[i / C];
-      rz_new += static_cast<double>(r[i]) * z[i];
+      rz_new += static_cast<double>(r[i]) * (r[i] / diag[i / C]);
       rr += static_cast<double>(r[i]) * r[i];
     }
     if (rr <= 1e-8 * r0) break;
     const float beta = static_cast<float>(rz_new / rz);
     rz = rz_new;
-    for (size_t i = 0; i < p.size(); ++i) p[i] = z[i] + beta * p[i];
+    for (size_t i = 0; i < p.size(); ++i) p[i] = r[i] / diag[i / C] + beta * p[i];
   }
   uint8_t* out = cv.img->pixels.data();
   for (size_t u = 0; u < U; ++u)
     for (int c = 0; c < C; ++c) out[texel_of[u] * C + static_cast<size_t>(c)] = to_byte(x[u * C + static_cast<size_t>(c)]);
   return U;
+}
+
+/// The least-squares fit of every fitted texel of the page, window by window (kFitWindow).
+template <int C>
+size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<const Image*>& inputs, int iterations,
+                         Canvas& cv) {
+  size_t fitted = 0;
+  for (int y0 = 0; y0 < cv.h; y0 += kFitWindow)
+    for (int x0 = 0; x0 < cv.w; x0 += kFitWindow)
+      fitted += fit_window<C>(jobs, inputs, iterations, cv, x0, y0, std::min(x0 + kFitWindow, cv.w),
+                              std::min(y0 + kFitWindow, cv.h));
+  return fitted;
 }
 
 // ------------------------------------------------------------------------------------------------
