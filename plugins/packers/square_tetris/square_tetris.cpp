@@ -590,8 +590,8 @@ class SquareTetris : public Packer {
     i.doc = "docs/packers.md";
     i.options = packing::common_options(true, 5);
     // note: default 512 from measurements (docs/packers.md): on the merged atlases of the 6 real
-    // tiles and 5 synthetic buildings it packs best on every one (tail 0, the paper read literally,
-    // is 6-17 points lower; configs/paper.json and configs/ablations keep it).
+    // tiles and 5 synthetic buildings it beats tetris on all 11 (+8 to +20 points) and tail 0, the
+    // paper read literally, by 15-27 points (configs/paper.json and its ablations keep tail 0).
     i.options.push_back(opt_int("tail_side", 512,
                                 "Charts whose padded box is smaller than tail_side^2 texels are packed last by their outline, "
                                 "at the lowest free position of the page, holes and box corners included (0: rectangles only, "
