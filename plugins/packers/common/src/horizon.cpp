@@ -232,18 +232,12 @@ Drop best_drop(Horizon& hz, int Hmax, const Profile& p) {
   if (all_columns) {
     for (int c = 0; c < w; ++c) cols.push_back(c);
   } else {
-    // Window maximum of H over [x, x + w): maxima over 2^j columns by doubling, then two
-    // overlapping power-of-two windows.
-    const int* cur = Hp;
+    // Window maximum of H over [x, x + w): two overlapping power-of-two windows of the horizon's
+    // kept window maxima (Horizon::window_max).
+    int k = 0;
+    while (2 << k <= w) ++k;
     int* dst = hz.wmax.data();
-    int* spare = hz.wtmp.data();
-    int k = 1;
-    for (; 2 * k <= w; k *= 2) {
-      max_shift(cur, k, W - 2 * k + 1, dst);
-      cur = dst;
-      std::swap(dst, spare);
-    }
-    max_shift(cur, w - k, n, dst);
+    max_shift(hz.window_max(k), w - (1 << k), n, dst);
     const int zero = 0;
     max_columns(dst, &zero, &p.bmax, 1, n, lb);
     if (!exact)
@@ -348,7 +342,7 @@ std::vector<Profile> make_profiles(const PackChart& c, const CommonSettings& s) 
 
 Horizon::Horizon(int width)
     : H(static_cast<size_t>(width), 0), prefix(static_cast<size_t>(width) + 1, 0), lb(static_cast<size_t>(width), 0),
-      wmax(static_cast<size_t>(width), 0), wtmp(static_cast<size_t>(width), 0) {}
+      wmax(static_cast<size_t>(width), 0) {}
 
 Horizon::Horizon(std::vector<int> heights) : Horizon(static_cast<int>(heights.size())) {
   H = std::move(heights);
@@ -358,13 +352,35 @@ Horizon::Horizon(std::vector<int> heights) : Horizon(static_cast<int>(heights.si
 
 void Horizon::update(int from) {
   for (size_t x = static_cast<size_t>(from); x < H.size(); ++x) prefix[x + 1] = prefix[x] + H[x];
+  levels.clear();
 }
 
 void Horizon::place(const Profile& p, const Drop& d) {
   for (int c = 0; c < p.w; ++c)
     if (p.top[static_cast<size_t>(c)] > 0) H[static_cast<size_t>(d.x + c)] = d.y + p.top[static_cast<size_t>(c)];
-  update(d.x);
+  for (size_t x = static_cast<size_t>(d.x); x < H.size(); ++x) prefix[x + 1] = prefix[x] + H[x];
+  // Window maxima whose window meets the changed columns [d.x, d.x + p.w), level by level.
+  const int W = static_cast<int>(H.size());
+  const int* prev = H.data();
+  for (size_t j = 0; j < levels.size(); ++j) {
+    const int half = 1 << j, span = 2 << j;
+    const int x0 = std::max(0, d.x - span + 1), x1 = std::min(d.x + p.w, W - span + 1);
+    if (x1 > x0) max_shift(prev + x0, half, x1 - x0, levels[j].data() + x0);
+    prev = levels[j].data();
+  }
   used = std::max(used, d.top);
+}
+
+const int* Horizon::window_max(int k) {
+  if (k == 0) return H.data();
+  const int W = static_cast<int>(H.size());
+  while (static_cast<int>(levels.size()) < k) {
+    const int j = static_cast<int>(levels.size());
+    const int* prev = j == 0 ? H.data() : levels[static_cast<size_t>(j - 1)].data();
+    levels.emplace_back(static_cast<size_t>(W), 0);
+    max_shift(prev, 1 << j, W - (2 << j) + 1, levels.back().data());
+  }
+  return levels[static_cast<size_t>(k - 1)].data();
 }
 
 }  // namespace texdefrag::packing

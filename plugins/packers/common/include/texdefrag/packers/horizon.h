@@ -49,20 +49,27 @@ struct Horizon {
   std::vector<int> H;             ///< top of the filled area per column
   std::vector<int> prefix;        ///< prefix[x] = H[0] + ... + H[x-1] (at most 32768^2 = 2^30)
   std::vector<int> lb;            ///< scratch: lower bound of the drop height per offset
-  std::vector<int> wmax;          ///< scratch: window maxima of H (doubling)
-  std::vector<int> wtmp;          ///< scratch: window maxima of H (doubling)
+  std::vector<int> wmax;          ///< scratch: window maxima of H over a profile's width
   std::vector<long long> cost_lb; ///< scratch: lower bound of the cost per offset (large pages)
   std::vector<int> cols, col_bottoms;  ///< scratch: profile columns used for the height bound
   std::vector<int> cost_lb32;     ///< scratch: lower bound of the cost per offset (pages up to 16384^2)
+  /// Window maxima by powers of two, built on demand and kept up to date by place():
+  /// levels[j][x] = max H[x .. x + 2^(j+1)) for x <= width - 2^(j+1).
+  std::vector<std::vector<int>> levels;
   int used = 0;                   ///< highest row in use
   /// An empty horizon. width: page width in cells, > 0.
   explicit Horizon(int width);
   /// A horizon with the given column heights (e.g. a skyline's); used = max height.
   explicit Horizon(std::vector<int> heights);
-  /// Recomputes prefix sums from column `from` after H changed there. 0 <= from <= width.
+  /// Recomputes prefix sums from column `from` and drops the window maxima after H was changed
+  /// directly there. 0 <= from <= width.
   void update(int from);
-  /// Rests profile p at drop d: H becomes the profile's top over its columns; updates `used`.
+  /// Rests profile p at drop d: H becomes the profile's top over its columns; updates `used`,
+  /// the prefix sums and the window maxima.
   void place(const Profile& p, const Drop& d);
+  /// max H[x .. x + 2^k) for x <= width - 2^k (k = 0: H itself); builds missing levels.
+  /// 2^k <= width.
+  const int* window_max(int k);
 };
 
 /// Best drop of profile p on horizon hz with rows limited to Hmax (cells), over every column
