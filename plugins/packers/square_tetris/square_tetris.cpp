@@ -598,6 +598,14 @@ class SquareTetris : public Packer {
                                 "the paper's packer)")
                             .range(0, 4096)
                             .unit("texels"));
+    // note: the outline search's cost grows about quadratically with the number of tail charts:
+    // best.json's merged real tiles (up to ~900 charts) take 0.05-1.3 s, paper.json's t016_L19
+    // (3016 charts) 17.6 s, unmerged 6-10k-fragment tiles 18-111 s (docs/packers.md); beyond this
+    // count the tail is skipped and reported.
+    i.options.push_back(opt_int("tail_max_charts", 1500,
+                                "Most charts the outline tail may hold; with more, every chart is packed as a rectangle "
+                                "(reported as outline_tail_skipped; 0: no limit)")
+                            .range(0, 100000000));
     i.create = [] { return std::make_unique<SquareTetris>(); };
     return i;
   }
@@ -616,6 +624,10 @@ class SquareTetris : public Packer {
       if (static_cast<long long>(packing::padded_w(c, 0, s)) * packing::padded_h(c, 0, s) >= tail_side * tail_side) break;
       --tail;
     }
+    const long long tail_max = options().get_int("tail_max_charts");
+    const size_t tail_charts = order.size() - tail;
+    const bool tail_skipped = tail_max > 0 && tail_charts > static_cast<size_t>(tail_max);
+    if (tail_skipped) tail = order.size();
     std::vector<std::vector<RunMask>> profiles(in.charts.size());
     std::map<std::vector<int>, int> shapes;  // tail masks' cells -> shape id
     // Outline masks: the tail's, and the outlines that charts placed as rectangles occupy on the
@@ -651,6 +663,8 @@ class SquareTetris : public Packer {
     if (ctx.report) {
       (*ctx.report)["hole_fills"] = r.hole_fills;
       (*ctx.report)["outline_drops"] = r.outline_drops;
+      (*ctx.report)["tail_charts"] = tail_charts;
+      (*ctx.report)["outline_tail_skipped"] = tail_skipped;
     }
   }
 };

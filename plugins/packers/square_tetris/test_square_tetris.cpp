@@ -130,3 +130,17 @@ TEST(PackersSquareTetris, OutlineTailNestsSmallCharts) {
   EXPECT_GE(area(*rect), 208.0 * 104.0);
   EXPECT_LT(area(*tail), area(*rect));
 }
+
+TEST(PackersSquareTetris, OutlineTailIsSkippedBeyondTailMaxCharts) {
+  // The same two triangles with tail_max_charts 1: the tail would hold 2 charts, so both are packed
+  // as rectangles and the report says why; with the limit at 2 the tail runs.
+  const std::vector<std::vector<Vec2>> polys = {{{0, 0}, {100, 0}, {0, 100}}, {{200, 0}, {300, 0}, {200, 100}}};
+  auto skipped = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}, {"tail_side", 200}, {"tail_max_charts", 1}});
+  expect_valid_layout(*skipped, 4);
+  EXPECT_EQ(skipped->report.at("outline_drops").get<int>(), 0);
+  EXPECT_EQ(skipped->report.at("tail_charts").get<int>(), 2);
+  EXPECT_TRUE(skipped->report.at("outline_tail_skipped").get<bool>());
+  auto kept = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}, {"tail_side", 200}, {"tail_max_charts", 2}});
+  EXPECT_EQ(kept->report.at("outline_drops").get<int>(), 2);
+  EXPECT_FALSE(kept->report.at("outline_tail_skipped").get<bool>());
+}
