@@ -32,6 +32,11 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
       opt_double("local_bound", local_bound_default,
                  "Reject a merge when the area-weighted ARAP error of its free region exceeds this")
           .range(0, 1e6),
+      opt_double("min_singular_value", 0,
+                 "Reject a merge when a reshaped triangle's smaller singular value (output UV size over input UV size "
+                 "along its most compressed direction) falls below this: no near-collapsed, smeared triangles (0: off, "
+                 "the M-method's and the paper's behaviour)")
+          .range(0, 1),
       opt_int("max_merges", 100000000, "Stop after this many accepted merges").at_least(0),
       opt_int("max_attempts", 3,
               "Attempts per chart pair; a rejected pair is retried only after one of its charts changed")
@@ -65,6 +70,7 @@ MergeOptions merge_options_from(const Options& o) {
   m.alpha = o.get_double("alpha");
   m.global_bound = o.get_double("global_bound");
   m.local_bound = o.get_double("local_bound");
+  m.min_singular_value = o.get_double("min_singular_value");
   m.max_merges = o.get_int("max_merges");
   m.max_attempts = static_cast<int>(o.get_int("max_attempts"));
   m.max_free_vertices = static_cast<int>(o.get_int("max_free_vertices"));
@@ -956,6 +962,13 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
       rollback();
       return false;
     }
+  if (opt_.min_singular_value > 0)
+    for (int f : changed)
+      if (rest_w_[static_cast<size_t>(f)] > 0 && signed_singular_values_2x2(jacobian(f))[1] < opt_.min_singular_value) {
+        reason = "collapse";
+        rollback();
+        return false;
+      }
   for (int ei : seam_edges)
     if (folded(ei)) {
       reason = "fold";

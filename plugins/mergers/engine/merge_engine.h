@@ -45,6 +45,7 @@ struct MergeOptions {
   double alpha = 5;             ///< free-region radius as a multiple of the largest weld displacement
   double global_bound = 0.025;  ///< reject when the global area-weighted ARAP distortion exceeds this
   double local_bound = 0.5;     ///< reject when the free region's area-weighted ARAP error exceeds this
+  double min_singular_value = 0;  ///< reject when a reshaped triangle's smaller singular value is below this (0: off)
   long long max_merges = 100000000;  ///< stop after this many accepted merges (>= 0)
   int max_attempts = 3;         ///< attempts per chart pair (a rejected pair is retried when a chart changes)
   int max_free_vertices = 2000; ///< cap on the free region (nearest wedges first)

@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <functional>
 
 #include <cmath>
@@ -312,6 +313,40 @@ TEST(MergeEngine, MMethodIslandLookaheadLiftsTheShortSeamRefusal) {
     EXPECT_GE(r.rejected.at("seam_too_short"), 1u);
     int a = run.ctx.atlas.face_chart[2 * (8 + 1)], b = run.ctx.atlas.face_chart[2 * (8 + 4)];
     EXPECT_NE(a, b);  // quads (1, 1) and (4, 1): still apart
+  }
+}
+
+TEST(MergeEngine, MinSingularValueRejectsCollapsedTriangles) {
+  // Merging the distorted grid has to reshape triangles; with min_singular_value 0.9 every merge
+  // that compresses a triangle below 0.9 of its input size in some direction is rolled back
+  // ("collapse"), so every face of the result keeps s2 >= 0.9 (0.89 without it), while without it some do not.
+  for (double bound : {0.0, 0.9}) {
+    test::Run run(test::distorted_fragmented_grid(6, 5, 0.08));
+    MergeOptions o;
+    o.min_singular_value = bound;
+    ArapSolver solver;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {}, o, solver, {});
+    double smin = 1e9;
+    for (size_t f = 0; f < run.mesh.faces.size(); ++f) {
+      Mat2 Dm, Do;
+      const auto& fw = run.ctx.atlas.face_wedge[f];
+      Dm.col(0) = run.mesh.corner_texel(f, 1) - run.mesh.corner_texel(f, 0);
+      Dm.col(1) = run.mesh.corner_texel(f, 2) - run.mesh.corner_texel(f, 0);
+      Do.col(0) = run.ctx.atlas.wedge_uv[static_cast<size_t>(fw[1])] - run.ctx.atlas.wedge_uv[static_cast<size_t>(fw[0])];
+      Do.col(1) = run.ctx.atlas.wedge_uv[static_cast<size_t>(fw[2])] - run.ctx.atlas.wedge_uv[static_cast<size_t>(fw[0])];
+      smin = std::min(smin, signed_singular_values_2x2(Do * Dm.inverse())[1]);
+    }
+    std::printf("  min_singular_value %.2f: smin %.4f, charts %zu -> %zu, collapse rejections %zu\n", bound, smin,
+                r.charts_in, r.charts_out, r.rejected.count("collapse") ? r.rejected.at("collapse") : size_t{0});
+    if (bound > 0) {
+      EXPECT_GE(smin, bound - 1e-12);
+      ASSERT_EQ(r.rejected.count("collapse"), 1u);
+      EXPECT_GT(r.rejected.at("collapse"), 0u);
+    } else {
+      EXPECT_LT(smin, 0.9);
+      EXPECT_EQ(r.rejected.count("collapse"), 0u);
+    }
+    EXPECT_LT(r.charts_out, r.charts_in);
   }
 }
 
