@@ -100,18 +100,9 @@ struct Sampler {
   }
 
   void bilinear(double gx, double gy, uint8_t* out) const {
-    gx = clamp_grid(gx, w);
-    gy = clamp_grid(gy, h);
-    const int x0 = ifloor(gx), y0 = ifloor(gy);
-    const float fx = static_cast<float>(gx - x0), fy = static_cast<float>(gy - y0);
-    const int xa = clampi(x0, w - 1), xb = clampi(x0 + 1, w - 1);
-    const int ya = clampi(y0, h - 1), yb = clampi(y0 + 1, h - 1);
-    const uint8_t *p00 = texel(xa, ya), *p10 = texel(xb, ya), *p01 = texel(xa, yb), *p11 = texel(xb, yb);
-    for (int c = 0; c < C; ++c) {
-      const float top = static_cast<float>(p00[c]) + fx * static_cast<float>(p10[c] - p00[c]);
-      const float bot = static_cast<float>(p01[c]) + fx * static_cast<float>(p11[c] - p01[c]);
-      out[c] = to_byte(top + fy * (bot - top));
-    }
+    float v[C];
+    bilinear_f(gx, gy, v);
+    for (int c = 0; c < C; ++c) out[c] = to_byte(v[c]);
   }
 
   /// Bilinear value without rounding (the least-squares fit's target).

@@ -117,6 +117,51 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
+/// A triangle or segment spanning more cells than this goes to its grid's `big` list instead.
+constexpr long long kMaxTriCells = 64;
+
+/// Items (faces or edges) of one chart in a uniform hash grid: cell -> item ids. Each item is
+/// inserted with the cell range of its box (x0, y0, x1, y1), kept by the caller for its removal.
+struct CellGrid {
+  std::unordered_map<long long, std::vector<int>> cells;
+  std::vector<int> big;  ///< items spanning more than kMaxTriCells cells (always tested)
+
+  static long long key(long long x, long long y) { return (x << 32) ^ (y & 0xffffffffLL); }
+  /// Inserts `id` over the cells of r; an item spanning too many cells goes to `big` and r becomes
+  /// the empty range.
+  void insert(int id, std::array<int, 4>& r) {
+    if (static_cast<long long>(r[2] - r[0] + 1) * (r[3] - r[1] + 1) > kMaxTriCells) {
+      r = {1, 1, 0, 0};
+      big.push_back(id);
+      return;
+    }
+    for (int y = r[1]; y <= r[3]; ++y)
+      for (int x = r[0]; x <= r[2]; ++x) cells[key(x, y)].push_back(id);
+  }
+  /// Removes `id`, inserted with range r.
+  void remove(int id, const std::array<int, 4>& r) {
+    auto drop = [id](std::vector<int>& v) {
+      auto it = std::find(v.begin(), v.end(), id);
+      if (it != v.end()) {
+        *it = v.back();
+        v.pop_back();
+      }
+    };
+    if (r[0] > r[2]) drop(big);
+    for (int y = r[1]; y <= r[3]; ++y)
+      for (int x = r[0]; x <= r[2]; ++x) {
+        auto it = cells.find(key(x, y));
+        if (it == cells.end()) continue;
+        drop(it->second);
+        if (it->second.empty()) cells.erase(it);
+      }
+  }
+  void clear() {
+    cells.clear();
+    big.clear();
+  }
+};
+
 struct ChartInfo {
   bool alive = true;
   bool locked = false;
@@ -135,20 +180,14 @@ struct ChartInfo {
   /// outnumber the live ones (the M-method's border sum adds the live entries in this order).
   std::vector<std::pair<int, int>> boundary;
   size_t boundary_dead = 0;
-  /// Its live boundary segments (current positions), uniform hash grid: cell -> edge ids 3f+k.
-  std::unordered_map<long long, std::vector<int>> seg_cells;
-  std::vector<int> seg_big;  ///< segments spanning more than kMaxTriCells cells (always tested)
+  CellGrid segs;  ///< its live boundary segments (current positions), edge ids 3f+k
   std::unordered_map<int, std::vector<int>> adj;       ///< neighbour chart -> seam edge ids
-  /// Its triangles with input UV area > 0 (current positions), uniform hash grid: cell -> faces.
-  std::unordered_map<long long, std::vector<int>> tri_cells;
-  std::vector<int> tri_big;  ///< triangles spanning more than kMaxTriCells cells (always tested)
+  CellGrid tris;  ///< its triangles with input UV area > 0 (current positions)
 };
 
 /// Merges the M-method's island lookahead may look ahead (its IslandLookahead(a, b, 5)).
 constexpr int kIslandLookaheadSteps = 5;
 
-/// A triangle spanning more cells than this goes to its chart's tri_big list instead of the grid.
-constexpr long long kMaxTriCells = 64;
 
 struct Entry {
   double score;  ///< larger first
@@ -258,7 +297,6 @@ class Engine {
   std::vector<std::array<int, 4>> fcells_;  ///< cell range x0, y0, x1, y1 it was inserted with
   std::vector<int> fseen_;                  ///< query stamps
   int seen_stamp_ = 0;
-  static long long cell_key(long long x, long long y) { return (x << 32) ^ (y & 0xffffffffLL); }
   void tri_box(int f, Vec2& lo, Vec2& hi) const {
     lo = hi = at_.wedge_uv[static_cast<size_t>(wedge(f, 0))];
     for (int k = 1; k < 3; ++k) {
@@ -642,58 +680,28 @@ void Engine::rollback() {
 }
 
 void Engine::grid_insert(int c, int f) {
-  ChartInfo& ch = C(c);
   Vec2 lo, hi;
   tri_box(f, lo, hi);
   std::array<int, 4>& r = fcells_[static_cast<size_t>(f)];
   r = {cell_of(lo.x()), cell_of(lo.y()), cell_of(hi.x()), cell_of(hi.y())};
   fowner_[static_cast<size_t>(f)] = c;
-  if (static_cast<long long>(r[2] - r[0] + 1) * (r[3] - r[1] + 1) > kMaxTriCells) {
-    r = {1, 1, 0, 0};  // empty range: lives in tri_big
-    ch.tri_big.push_back(f);
-    return;
-  }
-  for (int y = r[1]; y <= r[3]; ++y)
-    for (int x = r[0]; x <= r[2]; ++x) ch.tri_cells[cell_key(x, y)].push_back(f);
+  C(c).tris.insert(f, r);
 }
 
 void Engine::seg_insert(int c, int e) {
-  ChartInfo& ch = C(c);
   const Vec2& a = uv(wedge(e / 3, e % 3));
   const Vec2& b = uv(wedge(e / 3, (e % 3 + 1) % 3));
   std::array<int, 4>& r = ecells_[static_cast<size_t>(e)];
   r = {cell_of(std::min(a.x(), b.x())), cell_of(std::min(a.y(), b.y())), cell_of(std::max(a.x(), b.x())),
        cell_of(std::max(a.y(), b.y()))};
   eowner_[static_cast<size_t>(e)] = c;
-  if (static_cast<long long>(r[2] - r[0] + 1) * (r[3] - r[1] + 1) > kMaxTriCells) {
-    r = {1, 1, 0, 0};  // empty range: lives in seg_big
-    ch.seg_big.push_back(e);
-    return;
-  }
-  for (int y = r[1]; y <= r[3]; ++y)
-    for (int x = r[0]; x <= r[2]; ++x) ch.seg_cells[cell_key(x, y)].push_back(e);
+  C(c).segs.insert(e, r);
 }
 
 void Engine::seg_remove(int e) {
   const int c = eowner_[static_cast<size_t>(e)];
   if (c < 0) return;
-  ChartInfo& ch = C(c);
-  const std::array<int, 4>& r = ecells_[static_cast<size_t>(e)];
-  auto drop = [e](std::vector<int>& v) {
-    auto it = std::find(v.begin(), v.end(), e);
-    if (it != v.end()) {
-      *it = v.back();
-      v.pop_back();
-    }
-  };
-  if (r[0] > r[2]) drop(ch.seg_big);
-  for (int y = r[1]; y <= r[3]; ++y)
-    for (int x = r[0]; x <= r[2]; ++x) {
-      auto it = ch.seg_cells.find(cell_key(x, y));
-      if (it == ch.seg_cells.end()) continue;
-      drop(it->second);
-      if (it->second.empty()) ch.seg_cells.erase(it);
-    }
+  C(c).segs.remove(e, ecells_[static_cast<size_t>(e)]);
   eowner_[static_cast<size_t>(e)] = -1;
 }
 
@@ -709,23 +717,7 @@ void Engine::compact_boundary(ChartInfo& ch) {
 void Engine::grid_remove(int f) {
   const int c = fowner_[static_cast<size_t>(f)];
   if (c < 0) return;
-  ChartInfo& ch = C(c);
-  const std::array<int, 4>& r = fcells_[static_cast<size_t>(f)];
-  auto drop = [f](std::vector<int>& v) {
-    auto it = std::find(v.begin(), v.end(), f);
-    if (it != v.end()) {
-      *it = v.back();
-      v.pop_back();
-    }
-  };
-  if (r[0] > r[2]) drop(ch.tri_big);
-  for (int y = r[1]; y <= r[3]; ++y)
-    for (int x = r[0]; x <= r[2]; ++x) {
-      auto it = ch.tri_cells.find(cell_key(x, y));
-      if (it == ch.tri_cells.end()) continue;
-      drop(it->second);
-      if (it->second.empty()) ch.tri_cells.erase(it);
-    }
+  C(c).tris.remove(f, fcells_[static_cast<size_t>(f)]);
   fowner_[static_cast<size_t>(f)] = -1;
 }
 
@@ -1078,12 +1070,12 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
       if (ncells > static_cast<double>(Bg.boundary.size())) {
         for (const auto& [f, k] : Bg.boundary) visit(3 * f + k);
       } else {
-        for (int e : Bg.seg_big) visit(e);
+        for (int e : Bg.segs.big) visit(e);
         for (const auto& r : qr)
           for (int y = r[1]; y <= r[3]; ++y)
             for (int x = r[0]; x <= r[2]; ++x) {
-              auto it = Bg.seg_cells.find(cell_key(x, y));
-              if (it == Bg.seg_cells.end()) continue;
+              auto it = Bg.segs.cells.find(CellGrid::key(x, y));
+              if (it == Bg.segs.cells.end()) continue;
               for (int e : it->second) visit(e);
             }
       }
@@ -1163,12 +1155,12 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
         fseen_[static_cast<size_t>(f)] = seen_stamp_;
         keep(f);
       };
-      for (int f : Bg.tri_big) visit(f);
+      for (int f : Bg.tris.big) visit(f);
       for (const auto& r : qr)
         for (int y = r[1]; y <= r[3]; ++y)
           for (int x = r[0]; x <= r[2]; ++x) {
-            auto it = Bg.tri_cells.find(cell_key(x, y));
-            if (it == Bg.tri_cells.end()) continue;
+            auto it = Bg.tris.cells.find(CellGrid::key(x, y));
+            if (it == Bg.tris.cells.end()) continue;
             for (int f : it->second) visit(f);
           }
     }
@@ -1185,8 +1177,7 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
   for (int f : changed)
     if (fowner_[static_cast<size_t>(f)] == big) grid_remove(f);
   for (int f : Sm.faces) fowner_[static_cast<size_t>(f)] = -1;
-  Sm.tri_cells.clear();
-  Sm.tri_big.clear();
+  Sm.tris.clear();
   for (int f : Sm.faces)
     if (rest_w_[static_cast<size_t>(f)] > 0) grid_insert(big, f);
   for (int f : changed)
@@ -1216,8 +1207,7 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
   }
   Sm.boundary.clear();
   Sm.boundary_dead = 0;
-  Sm.seg_cells.clear();
-  Sm.seg_big.clear();
+  Sm.segs.clear();
   compact_boundary(Bg);
   if (opt_.priority == Priority::MMethod) {  // the border length is used by its cost only
     Bg.border = 0;
