@@ -1,6 +1,7 @@
 // mergers.arap with each ARAP solver on the real tiles under ../shared/data up to 10k faces (the
 // rural ContextCapture tiles; skipped when absent), M-method order, one region: invariants of each
 // result, and the two solvers' outcomes side by side (they minimise the same energy).
+#include "test_overlaps.h"
 #include "test_support.h"
 
 #include "texdefrag/eval/metrics.h"
@@ -17,28 +18,6 @@
 namespace texdefrag::merge {
 namespace {
 
-/// Overlapping triangle pairs within charts: of the atlas (by output chart) and of the input (the
-/// same faces' input texels, per output chart and input page), eval's exact test.
-std::pair<size_t, size_t> overlaps_in_out(const test::Run& run) {
-  const Atlas& at = run.ctx.atlas;
-  std::map<std::pair<int, int>, std::vector<std::array<Vec2, 3>>> in_tris;
-  std::vector<std::vector<std::array<Vec2, 3>>> out_tris(static_cast<size_t>(at.num_charts));
-  for (size_t f = 0; f < run.mesh.faces.size(); ++f) {
-    if (run.mesh.faces[f].page == kNoPage) continue;
-    const int c = at.face_chart[f];
-    in_tris[{c, run.mesh.faces[f].page}].push_back(
-        {run.mesh.corner_texel(f, 0), run.mesh.corner_texel(f, 1), run.mesh.corner_texel(f, 2)});
-    const auto& w = at.face_wedge[f];
-    out_tris[static_cast<size_t>(c)].push_back({at.wedge_uv[static_cast<size_t>(w[0])],
-                                               at.wedge_uv[static_cast<size_t>(w[1])],
-                                               at.wedge_uv[static_cast<size_t>(w[2])]});
-  }
-  size_t in = 0, out = 0;
-  for (const auto& [key, tris] : in_tris) in += eval::count_overlapping_pairs(tris);
-  for (const auto& tris : out_tris) out += eval::count_overlapping_pairs(tris);
-  return {in, out};
-}
-
 TEST(ArapReal, EigenAndCeresSolversOnRuralTiles) {
   const auto models = texdefrag::testing::real_models(10000);
   if (models.empty()) GTEST_SKIP() << "no real models up to 10k faces under ../shared/data";
@@ -52,7 +31,7 @@ TEST(ArapReal, EigenAndCeresSolversOnRuralTiles) {
       const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const json& r = run.report;
       const size_t in = r["charts_in"], out = r["charts_out"];
-      const auto [ov_in, ov_out] = overlaps_in_out(run);
+      const auto [ov_in, ov_out] = test::overlaps_in_out(run);
       std::printf("%s %s: %zu charts => %zu, E=%.5f, %zu/%zu merges, optimisation %.2f s, total %.2f s, "
                   "overlapping pairs %zu (input %zu)\n",
                   std::filesystem::path(path).filename().c_str(), solver, in, out, r["distortion_out"].get<double>(),

@@ -1,5 +1,6 @@
 // mergers.optcuts and mergers.arap on the real tiles under ../shared/data (skipped when absent),
 // with one region for all faces (the M-method's behaviour): invariants, and the numbers printed.
+#include "test_overlaps.h"
 #include "test_support.h"
 
 #include "texdefrag/eval/metrics.h"
@@ -42,22 +43,7 @@ void run_real(const std::string& stage, const json& options, double max_fraction
     EXPECT_LT(static_cast<double>(out), max_fraction_left * static_cast<double>(in));
     // Merging never creates UV overlaps: per output chart, overlapping triangle pairs in the atlas are
     // at most those its faces already had in the input (per input page; eval's exact test).
-    const Atlas& at = run.ctx.atlas;
-    std::map<std::pair<int, int>, std::vector<std::array<Vec2, 3>>> in_tris;
-    std::vector<std::vector<std::array<Vec2, 3>>> out_tris(static_cast<size_t>(at.num_charts));
-    for (size_t f = 0; f < run.mesh.faces.size(); ++f) {
-      if (run.mesh.faces[f].page == kNoPage) continue;
-      const int c = at.face_chart[f];
-      in_tris[{c, run.mesh.faces[f].page}].push_back(
-          {run.mesh.corner_texel(f, 0), run.mesh.corner_texel(f, 1), run.mesh.corner_texel(f, 2)});
-      const auto& w = at.face_wedge[f];
-      out_tris[static_cast<size_t>(c)].push_back({at.wedge_uv[static_cast<size_t>(w[0])],
-                                                 at.wedge_uv[static_cast<size_t>(w[1])],
-                                                 at.wedge_uv[static_cast<size_t>(w[2])]});
-    }
-    size_t ov_in = 0, ov_out = 0;
-    for (const auto& [key, tris] : in_tris) ov_in += eval::count_overlapping_pairs(tris);
-    for (const auto& tris : out_tris) ov_out += eval::count_overlapping_pairs(tris);
+    const auto [ov_in, ov_out] = test::overlaps_in_out(run);
     std::printf("  overlapping pairs within output charts: input %zu, output %zu\n", ov_in, ov_out);
     EXPECT_LE(ov_out, ov_in);
     // Each chart's page is one of its faces' input pages.
