@@ -126,7 +126,11 @@ struct CellGrid {
   std::unordered_map<long long, std::vector<int>> cells;
   std::vector<int> big;  ///< items spanning more than kMaxTriCells cells (always tested)
 
-  static long long key(long long x, long long y) { return (x << 32) ^ (y & 0xffffffffLL); }
+  /// x in the high 32 bits, y in the low ones (unsigned shift: cells can be negative).
+  static long long key(long long x, long long y) {
+    return static_cast<long long>((static_cast<unsigned long long>(x) << 32) ^
+                                  (static_cast<unsigned long long>(y) & 0xffffffffULL));
+  }
   /// Inserts `id` over the cells of r; an item spanning too many cells goes to `big` and r becomes
   /// the empty range.
   void insert(int id, std::array<int, 4>& r) {
