@@ -650,13 +650,10 @@ class SquareTetris : public Packer {
     }
     // note: once a width gives one page, later widths stop as soon as they cannot beat its area
     // (same result as packing them fully; t016_L19: ~2x faster).
-    packing::TrialBound bound;
-    const PackResult r = packing::pack_best_width(in, s, [&](int width) {
-      PackResult t = pack_square_tetris(in, s, order, tail, profiles, width, bound, ctx);
-      packing::size_pages(in, s, t);
-      bound.record(t);
-      return t;
-    });
+    const PackResult r = packing::pack_best_width(
+        in, s, [&](int width, packing::TrialBound& bound) {
+          return pack_square_tetris(in, s, order, tail, profiles, width, bound, ctx);
+        });
     ctx.step(name, 1.0);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     packing::write_layout(ctx, in, r, ms);

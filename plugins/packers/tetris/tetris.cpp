@@ -97,13 +97,10 @@ class Tetris : public Packer {
     for (int id : order) profiles[static_cast<size_t>(id)] = packing::make_profiles(in.charts[static_cast<size_t>(id)], s);
     // note: once a width gives one page, later widths stop as soon as they cannot beat its area
     // (packing::TrialBound; same result as packing them fully).
-    packing::TrialBound bound;
-    const PackResult r = packing::pack_best_width(in, s, [&](int width) {
-      PackResult t = pack_tetris(in, s, order, profiles, width, bound, ctx);
-      packing::size_pages(in, s, t);
-      bound.record(t);
-      return t;
-    });
+    const PackResult r = packing::pack_best_width(
+        in, s, [&](int width, packing::TrialBound& bound) {
+          return pack_tetris(in, s, order, profiles, width, bound, ctx);
+        });
     ctx.step(name, 1.0);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     packing::write_layout(ctx, in, r, ms);

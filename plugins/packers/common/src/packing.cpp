@@ -243,7 +243,7 @@ std::vector<int> order_by_area(const PackInput& in, const CommonSettings& s) {
 }
 
 PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
-                           const std::function<PackResult(int width)>& pack_with_width) {
+                           const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width) {
   double padded = 0;
   int min_width = 1;
   for (const PackChart& c : in.charts) {
@@ -268,9 +268,11 @@ PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
   }
   PackResult best;
   bool have = false;
+  TrialBound bound;
   for (int w : widths) {
-    PackResult r = pack_with_width(w);
+    PackResult r = pack_with_width(w, bound);
     size_pages(in, s, r);
+    bound.record(r);
     if (!have || r.pages < best.pages || (r.pages == best.pages && r.total_area() < best.total_area())) {
       best = std::move(r);
       have = true;

@@ -116,15 +116,6 @@ struct PackResult {
   double total_area() const;            ///< texels^2 of all pages
 };
 
-/// Packs with a few page widths and keeps the result with the fewest pages, then the least page
-/// area. When the charts' padded area is near or above one max_page_size page, only
-/// max_page_size is tried; otherwise `width_trials` widths from initial_page_width at expected
-/// efficiencies 1.0 down to 0.6. Results come back sized (size_pages).
-/// pack_with_width: packs every chart with pages of the given width (texels) and height limit
-/// max_page_size; must return one Placement per chart (page -1 for charts without faces).
-PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
-                           const std::function<PackResult(int width)>& pack_with_width);
-
 /// Early stop of pack_best_width's width trials, with the same result as packing every width in
 /// full: once one width packed everything on a single page, a later trial that opens a second
 /// page, or whose page 0 already needs at least that page's area, cannot win (pages only grow;
@@ -139,13 +130,24 @@ class TrialBound {
   bool hopeless(size_t pages, const CommonSettings& s) const;
   /// Marks a trial stopped as hopeless as losing (more pages than the recorded single page).
   static void lose(PackResult& r, size_t pages);
-  /// Records a finished trial, sized (size_pages).
+  /// Records a finished trial, sized (size_pages); pack_best_width does it.
   void record(const PackResult& r);
 
  private:
   double best_single_ = -1;  ///< texels^2 of the best single page so far, < 0: none yet
   int used_w_ = 0, used_h_ = 0;
 };
+
+/// Packs with a few page widths and keeps the result with the fewest pages, then the least page
+/// area. When the charts' padded area is near or above one max_page_size page, only
+/// max_page_size is tried; otherwise `width_trials` widths from initial_page_width at expected
+/// efficiencies 1.0 down to 0.6. Each result is sized (size_pages) once and recorded in a
+/// TrialBound shared by the trials, which the packer may use to stop a hopeless trial early.
+/// pack_with_width(width, bound): packs every chart with pages of the given width (texels) and
+/// height limit max_page_size; must return one Placement per chart (page -1 for charts without
+/// faces), or a result marked TrialBound::lose when bound.hopeless stopped it.
+PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
+                           const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width);
 
 /// Places one chart on the first page that takes it, pages in order, opening a page when none
 /// does (the page loop of packers.tetris and packers.square_tetris).
