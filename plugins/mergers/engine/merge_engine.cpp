@@ -164,6 +164,23 @@ struct CellGrid {
     cells.clear();
     big.clear();
   }
+  /// Calls fn(id) for every item of `big` and of every cell of the ranges rs (an item can come more
+  /// than once: callers de-duplicate).
+  template <class Fn>
+  void query(const std::vector<std::array<int, 4>>& rs, Fn&& fn) const {
+    for (int id : big) fn(id);
+    for (const auto& r : rs)
+      for (int y = r[1]; y <= r[3]; ++y)
+        for (int x = r[0]; x <= r[2]; ++x) {
+          auto it = cells.find(key(x, y));
+          if (it == cells.end()) continue;
+          for (int id : it->second) fn(id);
+        }
+  }
+  /// Number of cells of range r.
+  static double cell_count(const std::array<int, 4>& r) {
+    return (static_cast<double>(r[2]) - r[0] + 1) * (static_cast<double>(r[3]) - r[1] + 1);
+  }
 };
 
 struct ChartInfo {
@@ -311,6 +328,12 @@ class Engine {
   int cell_of(double x) const {
     const double q = std::floor(x / tri_cell_);
     return static_cast<int>(std::max(-1e9, std::min(1e9, q)));
+  }
+  /// Cell range of a grid query for the box [lo, hi] of an item of size len, widened by more than
+  /// the overlap tests' touching tolerance (1e-7 x the longest edge of a pair).
+  std::array<int, 4> query_cells(const Vec2& lo, const Vec2& hi, double len) const {
+    const double margin = 1e-6 * len + 1e-4 * tri_cell_;
+    return {cell_of(lo.x() - margin), cell_of(lo.y() - margin), cell_of(hi.x() + margin), cell_of(hi.y() + margin)};
   }
   void grid_insert(int c, int f);
   void grid_remove(int f);
@@ -1064,24 +1087,13 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
       qr.reserve(moved.size());
       double ncells = 0;
       for (const Segment& sg : moved) {
-        const Vec2 lo = sg.a.cwiseMin(sg.b), hi = sg.a.cwiseMax(sg.b);
-        const double margin = 1e-6 * (sg.b - sg.a).norm() + 1e-4 * tri_cell_;
-        qr.push_back({cell_of(lo.x() - margin), cell_of(lo.y() - margin), cell_of(hi.x() + margin),
-                      cell_of(hi.y() + margin)});
-        const std::array<int, 4>& r = qr.back();
-        ncells += (static_cast<double>(r[2]) - r[0] + 1) * (static_cast<double>(r[3]) - r[1] + 1);
+        qr.push_back(query_cells(sg.a.cwiseMin(sg.b), sg.a.cwiseMax(sg.b), (sg.b - sg.a).norm()));
+        ncells += CellGrid::cell_count(qr.back());
       }
       if (ncells > static_cast<double>(Bg.boundary.size())) {
         for (const auto& [f, k] : Bg.boundary) visit(3 * f + k);
       } else {
-        for (int e : Bg.segs.big) visit(e);
-        for (const auto& r : qr)
-          for (int y = r[1]; y <= r[3]; ++y)
-            for (int x = r[0]; x <= r[2]; ++x) {
-              auto it = Bg.segs.cells.find(CellGrid::key(x, y));
-              if (it == Bg.segs.cells.end()) continue;
-              for (int e : it->second) visit(e);
-            }
+        Bg.segs.query(qr, visit);
       }
     }
   }
@@ -1145,10 +1157,8 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
         b = b.cwiseMax(t.p[static_cast<size_t>(k)]);
         l = std::max(l, (t.p[static_cast<size_t>(k)] - t.p[static_cast<size_t>((k + 1) % 3)]).norm());
       }
-      const double margin = 1e-6 * l + 1e-4 * tri_cell_;
-      qr.push_back({cell_of(a.x() - margin), cell_of(a.y() - margin), cell_of(b.x() + margin), cell_of(b.y() + margin)});
-      const std::array<int, 4>& r = qr.back();
-      ncells += (static_cast<double>(r[2]) - r[0] + 1) * (static_cast<double>(r[3]) - r[1] + 1);
+      qr.push_back(query_cells(a, b, l));
+      ncells += CellGrid::cell_count(qr.back());
     }
     if (ncells > static_cast<double>(Bg.faces.size())) {
       for (int f : Bg.faces) keep(f);
@@ -1159,14 +1169,7 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
         fseen_[static_cast<size_t>(f)] = seen_stamp_;
         keep(f);
       };
-      for (int f : Bg.tris.big) visit(f);
-      for (const auto& r : qr)
-        for (int y = r[1]; y <= r[3]; ++y)
-          for (int x = r[0]; x <= r[2]; ++x) {
-            auto it = Bg.tris.cells.find(CellGrid::key(x, y));
-            if (it == Bg.tris.cells.end()) continue;
-            for (int f : it->second) visit(f);
-          }
+      Bg.tris.query(qr, visit);
     }
     if (any_triangle_overlap(mt, rest)) {
       reason = "overlap";
