@@ -175,6 +175,16 @@ struct FaceJob {
   std::array<Vec2, 3> out, in;  // texel space, y up
 };
 
+/// Doubled signed area of output triangle o; `degenerate` when |2 area| <= kDegenerateRatio x its
+/// longest edge squared (no interior: rendered as a point/segment, skipped by the fit).
+double output_det(const std::array<Vec2, 3>& o, bool& degenerate) {
+  const Vec2 e1 = o[1] - o[0], e2 = o[2] - o[0];
+  const double det = e1.x() * e2.y() - e1.y() * e2.x();
+  const double longest2 = std::max({e1.squaredNorm(), e2.squaredNorm(), (o[2] - o[1]).squaredNorm()});
+  degenerate = !(std::abs(det) > kDegenerateRatio * longest2);
+  return det;
+}
+
 /// Affine map output texel space -> input texel space of a face: in = A out + t.
 struct Affine {
   double A00 = 1, A01 = 0, A10 = 0, A11 = 1, t0 = 0, t1 = 0;
@@ -304,10 +314,8 @@ template <int C>
 void render_face(const FaceJob& job, const Sampler<C>& src, Filter filter, Canvas& cv, PageStats& st) {
   const auto& o = job.out;
   const double Wd = cv.w, Hd = cv.h;
-  const Vec2 e1 = o[1] - o[0], e2 = o[2] - o[0];
-  const double det = e1.x() * e2.y() - e1.y() * e2.x();
-  const double longest2 = std::max({e1.squaredNorm(), e2.squaredNorm(), (o[2] - o[1]).squaredNorm()});
-  const bool degenerate = !(std::abs(det) > kDegenerateRatio * longest2);
+  bool degenerate = false;
+  const double det = output_det(o, degenerate);
 
   // Texel index window: centres within kBorderRadius of the bounding box.
   const double xmin = std::min({o[0].x(), o[1].x(), o[2].x()}), xmax = std::max({o[0].x(), o[1].x(), o[2].x()});
@@ -561,10 +569,9 @@ size_t fit_window(const std::vector<FaceJob>& jobs, const std::vector<const Imag
     const long long q0 = std::max<long long>(cq0, static_cast<long long>(std::floor(gymin)));
     const long long q1 = std::min<long long>(cq1, static_cast<long long>(std::floor(gymax)));
     if (m0 > m1 || q0 > q1) continue;
-    const Vec2 e1 = o[1] - o[0], e2 = o[2] - o[0];
-    const double det = e1.x() * e2.y() - e1.y() * e2.x();
-    const double longest2 = std::max({e1.squaredNorm(), e2.squaredNorm(), (o[2] - o[1]).squaredNorm()});
-    if (!(std::abs(det) > kDegenerateRatio * longest2)) continue;
+    bool degenerate = false;
+    const double det = output_det(o, degenerate);
+    if (degenerate) continue;
     const Affine af = face_affine(o, job.in, det);
     const Image& in = *inputs[static_cast<size_t>(job.in_page)];
     Sampler<C> src;
