@@ -975,19 +975,24 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
     rollback();
     return false;
   }
-  for (int f : changed)
-    if (rest_w_[static_cast<size_t>(f)] > 0 && jacobian(f).determinant() <= 0) {
+  // Flips first (any flipped face makes the reason "flip"), then near-collapsed faces.
+  bool collapsed = false;
+  for (int f : changed) {
+    if (rest_w_[static_cast<size_t>(f)] == 0) continue;
+    const Mat2 J = jacobian(f);
+    if (J.determinant() <= 0) {
       reason = "flip";
       rollback();
       return false;
     }
-  if (opt_.min_singular_value > 0)
-    for (int f : changed)
-      if (rest_w_[static_cast<size_t>(f)] > 0 && signed_singular_values_2x2(jacobian(f))[1] < opt_.min_singular_value) {
-        reason = "collapse";
-        rollback();
-        return false;
-      }
+    if (opt_.min_singular_value > 0 && !collapsed)
+      collapsed = signed_singular_values_2x2(J)[1] < opt_.min_singular_value;
+  }
+  if (collapsed) {
+    reason = "collapse";
+    rollback();
+    return false;
+  }
   for (int ei : seam_edges)
     if (folded(ei)) {
       reason = "fold";
