@@ -697,41 +697,30 @@ TEST(TextureResample, LeastSquaresFitBeatsSamplingOnRotatedCharts) {
   // A 48x48-texel square turned by various angles: the output read bilinearly is closer to the input
   // read bilinearly with the fit than with plain sampling (which filters twice), by at least 1 dB.
   const Image img = photo_like(64, 64);
-  for (double deg : {10.0, 30.0, 45.0}) {
-    const double a = deg * 3.141592653589793 / 180;
-    const auto map = [a](const Vec2& p) -> Vec2 {
+  // The square turned by `rad` about its centre, which lands at `centre` of a `side`^2 page.
+  auto compare = [&img](const char* what, double rad, const Vec2& centre, int side) {
+    const auto map = [rad, centre](const Vec2& p) -> Vec2 {
       const Vec2 d = p - Vec2(32, 32);
-      return Vec2(48.3 + std::cos(a) * d.x() - std::sin(a) * d.y(), 47.6 + std::sin(a) * d.x() + std::cos(a) * d.y());
+      return centre + Vec2(std::cos(rad) * d.x() - std::sin(rad) * d.y(), std::sin(rad) * d.x() + std::cos(rad) * d.y());
     };
     double psnr[2];
     for (int k = 0; k < 2; ++k) {
       Scene s;
       const int in = s.add_input_page(img);
-      s.add_rect(s.add_chart(in, s.add_output_page(96, 96)), 8, 8, 56, 56, map);
+      s.add_rect(s.add_chart(in, s.add_output_page(side, side)), 8, 8, 56, 56, map);
       ResampleStats st;
       const auto pages = s.run(fit_opts(k ? TexelFit::LeastSquares : TexelFit::Sample), &st);
       EXPECT_EQ(st.texels_fitted > 0, k == 1);
       psnr[k] = rect_psnr(img, pages[0], 8, 56, 0.0, map);
     }
-    std::printf("  rotation %.0f deg: sample %.2f dB, least squares %.2f dB\n", deg, psnr[0], psnr[1]);
-    EXPECT_GT(psnr[1], psnr[0] + 1.0) << deg;
-  }
-  // Pages are fitted in windows of 1024 texels: a chart across a window border gains as much.
-  const double a = 0.5;
-  const auto across = [a](const Vec2& p) -> Vec2 {
-    const Vec2 d = p - Vec2(32, 32);
-    return Vec2(1024.3 + std::cos(a) * d.x() - std::sin(a) * d.y(), 1030.6 + std::sin(a) * d.x() + std::cos(a) * d.y());
+    std::printf("  %s: sample %.2f dB, least squares %.2f dB\n", what, psnr[0], psnr[1]);
+    EXPECT_GT(psnr[1], psnr[0] + 1.0) << what;
   };
-  double psnr[2];
-  for (int k = 0; k < 2; ++k) {
-    Scene s;
-    const int in = s.add_input_page(img);
-    s.add_rect(s.add_chart(in, s.add_output_page(1100, 1100)), 8, 8, 56, 56, across);
-    const auto pages = s.run(fit_opts(k ? TexelFit::LeastSquares : TexelFit::Sample));
-    psnr[k] = rect_psnr(img, pages[0], 8, 56, 0.0, across);
-  }
-  std::printf("  across a fit window border: sample %.2f dB, least squares %.2f dB\n", psnr[0], psnr[1]);
-  EXPECT_GT(psnr[1], psnr[0] + 1.0);
+  compare("rotation 10 deg", 10 * 3.141592653589793 / 180, Vec2(48.3, 47.6), 96);
+  compare("rotation 30 deg", 30 * 3.141592653589793 / 180, Vec2(48.3, 47.6), 96);
+  compare("rotation 45 deg", 45 * 3.141592653589793 / 180, Vec2(48.3, 47.6), 96);
+  // Pages are fitted in windows of 1024 texels: a chart across a window border gains as much.
+  compare("across a fit window border", 0.5, Vec2(1024.3, 1030.6), 1100);
 }
 
 TEST(TextureResample, LeastSquaresFitKeepsLinearRampsAndCopiedTexels) {
