@@ -13,8 +13,19 @@ PKGS=(
   libgtest-dev libgmock-dev googletest  # unit tests
   libbenchmark-dev       # benchmarks
   python3 python3-matplotlib python3-numpy  # eval/plots
+  libopenscenegraph-dev openscenegraph  # OSGB pyramids (reader/writer; osgconv checks the output)
+  libtinygltf-dev        # glTF 2.0 / GLB reader and writer
+  libdraco-dev           # Draco mesh compression in glTF (KHR_draco_mesh_compression)
+  libtbb-dev             # parallel loops inside one model
+  python3-distributed    # texdefrag batch on a Dask cluster
+  python3-dev pybind11-dev  # the Python module
+  chromium               # report viewer test (headless)
+  help2man dpkg-dev fakeroot file  # man page and the .deb (CPack)
 )
 missing=()
+# three.js (report viewer) and gltf-validator (tests) come from npm (scripts/install-npm.sh); Node.js
+# is on the machine image (NodeSource build, which bundles npm), else Debian's.
+command -v npm >/dev/null 2>&1 || PKGS+=(nodejs npm)
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
