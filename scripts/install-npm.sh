@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Installs the project's Node.js packages (tools/node/package.json, locked by package-lock.json)
+# into tools/node/node_modules with `npm ci`. Node.js and npm come from scripts/install-deps.sh.
+# playwright-core never downloads a browser (it drives the system Chromium); the variable below
+# keeps any install hook from trying.
+set -euo pipefail
+cd "$(dirname "$0")/../tools/node"
+if ! command -v npm >/dev/null; then
+  echo "install-npm.sh: npm not found (run scripts/install-deps.sh first)" >&2
+  exit 1
+fi
+export PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1
+npm ci --no-audit --no-fund --loglevel=error
