@@ -60,9 +60,12 @@ const StageInfo& texture_stage_info() {
 
 const StageInfo& writer_stage_info() {
   static const StageInfo info = framework_info(
-      "writers.obj", "Writes the output OBJ, MTL and atlas pages", "docs/io.md",
-      {opt_enum("image_format", "png", {"png", "jpeg"}, "Format of the output pages"),
-       opt_int("jpeg_quality", 95, "JPEG quality when image_format is 'jpeg'").range(1, 100),
+      "writers.obj", "Writes the output model (the input's format) and its atlas pages", "docs/io.md",
+      {opt_enum("image_format", "input", {"input", "png", "jpeg"},
+                "Format of the output pages; 'input': JPEG when every textured input page is JPEG, else PNG"),
+       opt_int("jpeg_quality", 95, "JPEG quality of JPEG pages when no input quality is matched").range(1, 100),
+       opt_bool("match_input_quality", true,
+                "JPEG pages take the quality estimated from the input JPEG pages' quantisation tables"),
        opt_string("name", "", "Output file stem; empty keeps the input's stem"),
        opt_bool("write_report", true, "Write <stem>.report.json beside the output")});
   return info;

@@ -2,6 +2,7 @@
 
 #include "texdefrag/core/distortion.h"
 #include "texdefrag/io/image.h"
+#include "texdefrag/io/model_format.h"
 #include "texdefrag/io/obj.h"
 #include "texdefrag/texture/resample.h"
 #include "texdefrag/util/memory.h"
@@ -10,7 +11,6 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <set>
 
 namespace fs = std::filesystem;
 
@@ -226,8 +226,6 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   report["stages"] = json::object();
   ProgressFn progress = rate_limited(options.progress);
 
-  const std::string out_format = config.output.get_string("image_format");
-  const std::string ext = out_format == "jpeg" ? "jpg" : "png";
   std::string stem = config.output.get_string("name");
   if (stem.empty()) stem = fs::path(options.input).stem().string();
   if (options.write_output) {
@@ -239,10 +237,13 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
       throw StageError("output folder " + options.output_dir + " is the input's folder; choose another so no input file can be overwritten");
   }
 
-  TexturedMesh mesh;
+  const ModelFormat& format = format_for_input(options.input);
+  LoadedModel model;
+  TexturedMesh& mesh = model.mesh;
   timed(report, "read", [&](json& node) {
     progress("read", 0);
-    mesh = read_obj(options.input);
+    model = format.read(options.input);
+    node["format"] = format.name();
     node["faces"] = mesh.faces.size();
     node["positions"] = mesh.positions.size();
     node["texcoords"] = mesh.texcoords.size();
@@ -313,7 +314,7 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     for (const Face& f : mesh.faces)
       if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
     for (size_t p = 0; p < mesh.pages.size(); ++p)
-      if (used[p]) in_pages[p] = read_image(mesh.pages[p].image_path);
+      if (used[p]) in_pages[p] = model.page_image(p);
     ResampleOptions ro;
     const std::string filter = config.texture.get_string("filter");
     ro.filter = filter == "nearest" ? Filter::Nearest : filter == "bicubic" ? Filter::Bicubic : Filter::Bilinear;
@@ -340,31 +341,23 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
 
   if (options.write_output) {
     timed(report, "write", [&](json& node) {
-      fs::create_directories(options.output_dir);
+      const PageWriteOptions po = choose_page_options(model, config.output.get_string("image_format"),
+                                                      static_cast<int>(config.output.get_int("jpeg_quality")),
+                                                      config.output.get_bool("match_input_quality"));
+      const std::string ext = po.format == ImageFormat::Jpeg ? "jpg" : "png";
       TexturedMesh out = make_output_mesh(mesh, ctx.atlas, ctx.layout, stem, ext, options.output_dir);
-      std::vector<std::string> protect = {options.input};
-      for (const Page& p : mesh.pages) protect.push_back(p.image_path);
-      const std::set<std::string> protected_set = [&] {
-        std::set<std::string> s;
-        for (const auto& p : protect) s.insert(canonical_or_absolute(p));
-        return s;
-      }();
-      size_t bytes = 0;
-      for (size_t p = 0; p < out_pages.size(); ++p) {
-        const std::string path = out.pages[p].image_path;
-        if (protected_set.count(canonical_or_absolute(path)))
-          throw StageError("refusing to overwrite input file " + path);
-        write_image(path, out_pages[p], out_format == "jpeg" ? ImageFormat::Jpeg : ImageFormat::Png,
-                    static_cast<int>(config.output.get_int("jpeg_quality")));
-        bytes += fs::file_size(path);
-      }
-      ObjWriteOptions wo;
-      wo.protected_paths = protect;
-      const std::string obj_path = (fs::path(options.output_dir) / (stem + ".obj")).string();
-      write_obj(out, obj_path, wo);
-      node["obj"] = obj_path;
-      node["page_bytes"] = bytes;
-      report["output"] = obj_path;
+      DirectOutputFiles files(options.output_dir, model.input_files);
+      const WriteResult wr = format.write(model, out, out_pages, stem, po, files);
+      node["format"] = format.name();
+      node["image_format"] = ext == "jpg" ? "jpeg" : "png";
+      if (po.format == ImageFormat::Jpeg) node["jpeg_quality"] = po.jpeg_quality;
+      node["file"] = wr.main_file;
+      node["page_bytes"] = wr.page_bytes;
+      size_t in_bytes = 0;
+      for (const PageEncoding& e : model.page_encodings) in_bytes += e.bytes;
+      node["input_page_bytes"] = in_bytes;
+      for (const auto& kv : wr.report.items()) node[kv.key()] = kv.value();
+      report["output"] = wr.main_file;
     });
   }
   report["total_time_s"] = seconds_since(t_start);

@@ -1,0 +1,169 @@
+// Model formats: one reader/writer per file format behind one interface, chosen by the input file.
+// The pipeline reads through `format_for_input(path).read(...)`, runs its stages on the
+// TexturedMesh, and writes back through the same format's `write(...)`; it never knows the format.
+//
+// Contract of a ModelFormat:
+// - read() returns a LoadedModel whose mesh follows core/mesh.h; faces are in a fixed order that
+//   the format's own `source` object maps back to its native structure (OBJ lines, OSG primitive
+//   sets, glTF primitives). Every page has its size; a page's pixels are either a file on disk
+//   (Page::image_path) or decoded in memory (LoadedModel::page_images[p], for formats that embed
+//   images: OSGB, GLB). Decision: embedded images are decoded to memory, never extracted to a
+//   scratch folder (no temporary files to clean; the pixels are needed decoded anyway).
+// - write() receives the model read, the output mesh (same faces, same order, same positions; new
+//   texture coordinates and pages, built by make_output_mesh), and the output page images. It
+//   writes the same structure the input had (file names, node structure, everything but texture
+//   coordinates and images) through an OutputFiles, and returns what it wrote.
+// - Errors are FormatError (or ObjError/ImageError from the OBJ and image code) naming the file
+//   (and, for a file referenced by another, the referencing file).
+#pragma once
+
+#include "texdefrag/core/mesh.h"
+#include "texdefrag/io/image.h"
+
+#include <nlohmann/json.hpp>
+
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace texdefrag {
+
+using json = nlohmann::json;
+
+/// A model file that cannot be read or written; the message starts with the file.
+struct FormatError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// How an input page was encoded: decides the default output page format (docs/io.md).
+struct PageEncoding {
+  /// "jpeg", "png", or another lower-case format name; "" when unknown.
+  std::string format;
+  /// IJG quality (1..100) estimated from the JPEG quantisation tables; empty when not JPEG or when
+  /// the tables are not IJG-scaled enough to tell.
+  std::optional<int> jpeg_quality;
+  /// Bytes of the encoded image (file size, or embedded stream size); 0 when unknown.
+  size_t bytes = 0;
+};
+
+/// Format-specific state kept between read and write (the scene graph, face -> primitive maps).
+/// Opaque to the pipeline; each format downcasts its own.
+class ModelSource {
+ public:
+  virtual ~ModelSource() = default;
+};
+
+/// A model as read: the mesh the stages work on plus what the writer needs to write it back.
+struct LoadedModel {
+  std::string path;    ///< the input file as given
+  std::string format;  ///< name() of the format that read it
+  TexturedMesh mesh;
+  /// One per page. Empty Image: the page is the file mesh.pages[p].image_path; otherwise the
+  /// decoded pixels of an embedded image (rows top to bottom, as io/image.h).
+  std::vector<Image> page_images;
+  /// One per page: how it was encoded.
+  std::vector<PageEncoding> page_encodings;
+  /// Every file the model was read from or references (model, MTLs, images, ...): never written.
+  std::vector<std::string> input_files;
+  /// Per-format state for write(); may be null for formats that need none.
+  std::shared_ptr<ModelSource> source;
+
+  /// Pixels of page p: page_images[p] if not empty, else read from mesh.pages[p].image_path.
+  Image page_image(size_t p) const;
+};
+
+/// Where writers put files. The seam to the one write service (io/output_set.h): writers never
+/// open final paths themselves.
+class OutputFiles {
+ public:
+  virtual ~OutputFiles() = default;
+  /// Claims `name` (a plain relative path under the output folder, e.g. "tile.osgb") and returns
+  /// the path to write it to now (its folder exists). Throws when the name is refused (protected
+  /// input, claimed twice, escapes the folder).
+  virtual std::string path_for(const std::string& name) = 0;
+  /// Where `name` appears once the output is complete.
+  virtual std::string final_path(const std::string& name) const = 0;
+};
+
+/// What the output pages look like on disk or in the model.
+struct PageWriteOptions {
+  ImageFormat format = ImageFormat::Png;
+  int jpeg_quality = 95;  ///< [1, 100], used for Jpeg
+};
+
+/// What a writer wrote.
+struct WriteResult {
+  std::string main_file;            ///< final path of the model file (e.g. OUT/tile.osgb)
+  std::vector<std::string> files;   ///< final paths of every file written, main file first
+  size_t page_bytes = 0;            ///< bytes of encoded page images (files or embedded streams)
+  json report = json::object();     ///< format-specific figures for the run report's write node
+};
+
+class ModelFormat {
+ public:
+  virtual ~ModelFormat() = default;
+  /// Short lower-case name: "obj", "osgb".
+  virtual std::string name() const = 0;
+  /// True when this format reads `path` (by extension, or by sniffing the first bytes).
+  virtual bool can_read(const std::string& path) const = 0;
+  /// Reads a model. Throws FormatError/ObjError/ImageError naming the file on bad input.
+  virtual LoadedModel read(const std::string& path) const = 0;
+  /// The file name the writer gives the model for output stem `stem` (e.g. "tile" -> "tile.osgb").
+  virtual std::string output_name(const std::string& stem) const = 0;
+  /// Writes `out_mesh` and `pages` with the structure of `in`.
+  /// in: the model as read by this format (in.format == name()).
+  /// out_mesh: from make_output_mesh(in.mesh, ...): same faces in the same order, page i of its
+  ///   pages is pages[i]; Page::image_path names the file an image-file format writes.
+  /// pages: output page images, one per out_mesh.pages entry.
+  /// stem: output file stem; files: where to write; page_options: encoding of the pages.
+  virtual WriteResult write(const LoadedModel& in, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
+                            const std::string& stem, const PageWriteOptions& page_options,
+                            OutputFiles& files) const = 0;
+};
+
+/// Every built-in format, in the order they are tried.
+const std::vector<const ModelFormat*>& model_formats();
+
+/// The format that reads `path`. Throws FormatError naming the file and the known formats when none
+/// does, or when the file does not exist.
+const ModelFormat& format_for_input(const std::string& path);
+
+/// The format named `name`, or nullptr.
+const ModelFormat* find_model_format(const std::string& name);
+
+/// Lower-case extension of `path` without the dot ("Tile.OSGB" -> "osgb"); "" when none.
+std::string lower_extension(const std::string& path);
+
+/// Image format of an encoded image from its first bytes: "jpeg", "png", else the lower-case
+/// extension of `name` ("jpg" read as "jpeg"). data/size: the first bytes (8 are enough).
+std::string sniff_image_format(const uint8_t* data, size_t size, const std::string& name);
+
+/// The page encoding a file on disk has (format from its first bytes, JPEG quality from its DQT).
+PageEncoding page_encoding_of_file(const std::string& path);
+
+/// The output page encoding for `in` (docs/io.md "Page format").
+/// image_format: "png" or "jpeg" force the format; "input" gives JPEG when every textured input page
+///   is JPEG, else PNG (PNG in, PNG out; mixed or other formats: PNG, lossless).
+/// jpeg_quality: [1, 100], the quality of JPEG pages when match_input_quality is false or no input
+///   page has an estimated quality; otherwise the largest estimated quality of the textured input
+///   JPEG pages (so no page is written at a lower quality than it was read).
+PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& image_format, int jpeg_quality,
+                                     bool match_input_quality);
+
+/// An OutputFiles that writes straight to OUTDIR/name (creating folders), refusing protected
+/// paths (compared canonically). Used until the staged OutputSet (io/output_set.h) is on main.
+class DirectOutputFiles : public OutputFiles {
+ public:
+  DirectOutputFiles(std::string dir, std::vector<std::string> protected_paths);
+  std::string path_for(const std::string& name) override;
+  std::string final_path(const std::string& name) const override;
+
+ private:
+  std::string dir_;
+  std::vector<std::string> protected_;
+  std::vector<std::string> claimed_;
+};
+
+}  // namespace texdefrag

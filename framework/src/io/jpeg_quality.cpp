@@ -1,0 +1,95 @@
+// JPEG quality estimation from DQT tables (see texdefrag/io/jpeg_quality.h). The standard tables and
+// their scaling are those of the IJG libjpeg (jcparam.c, ITU-T T.81 Annex K).
+#include "texdefrag/io/jpeg_quality.h"
+
+#include <algorithm>
+#include <array>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <vector>
+
+namespace texdefrag {
+namespace {
+
+// Annex K tables in natural (row-major) order.
+constexpr std::array<int, 64> kStdLuminance = {
+    16, 11, 10, 16, 24,  40,  51,  61,  12, 12, 14, 19, 26,  58,  60,  55,  14, 13, 16, 24, 40,  57,
+    69, 56, 14, 17, 22,  29,  51,  87,  80, 62, 18, 22, 37,  56,  68,  109, 103, 77, 24, 35, 55, 64,
+    81, 104, 113, 92, 49, 64, 78, 87, 103, 121, 120, 101, 72, 92, 95, 98, 112, 100, 103, 99};
+constexpr std::array<int, 64> kStdChrominance = {
+    17, 18, 24, 47, 99, 99, 99, 99, 18, 21, 26, 66, 99, 99, 99, 99, 24, 26, 56, 99, 99, 99,
+    99, 99, 47, 66, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99,
+    99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99};
+// Zigzag position k -> natural index (the order DQT stores its 64 values in).
+constexpr std::array<int, 64> kNaturalOrder = {
+    0,  1,  8,  16, 9,  2,  3,  10, 17, 24, 32, 25, 18, 11, 4,  5,  12, 19, 26, 33, 40, 48,
+    41, 34, 27, 20, 13, 6,  7,  14, 21, 28, 35, 42, 49, 56, 57, 50, 43, 36, 29, 22, 15, 23,
+    30, 37, 44, 51, 58, 59, 52, 45, 38, 31, 39, 46, 53, 60, 61, 54, 47, 55, 62, 63};
+
+/// libjpeg's jpeg_quality_scaling + jpeg_add_quant_table with force_baseline.
+int scaled(int base, int quality) {
+  const int scale = quality < 50 ? 5000 / quality : 200 - quality * 2;
+  const long v = (static_cast<long>(base) * scale + 50) / 100;
+  return static_cast<int>(std::clamp(v, 1L, 255L));
+}
+
+}  // namespace
+
+std::optional<int> estimate_jpeg_quality(const uint8_t* data, size_t size) {
+  if (size < 4 || data[0] != 0xFF || data[1] != 0xD8) return std::nullopt;
+  std::array<std::vector<int>, 4> tables;  // natural order, by table id
+  size_t pos = 2;
+  while (pos + 4 <= size) {
+    if (data[pos] != 0xFF) return std::nullopt;
+    const uint8_t marker = data[pos + 1];
+    if (marker == 0xFF) {  // fill byte
+      ++pos;
+      continue;
+    }
+    if (marker == 0xDA || marker == 0xD9) break;  // SOS / EOI: no DQT after this point matters
+    const size_t len = static_cast<size_t>(data[pos + 2]) << 8 | data[pos + 3];
+    if (len < 2) return std::nullopt;
+    if (marker == 0xDB) {
+      size_t q = pos + 4;
+      const size_t end = std::min(size, pos + 2 + len);
+      while (q < end) {
+        const int precision = data[q] >> 4, id = data[q] & 0x0F;
+        const size_t n = precision ? 128 : 64;
+        if (id > 3 || q + 1 + n > end) return std::nullopt;
+        std::vector<int> t(64);
+        for (size_t k = 0; k < 64; ++k)
+          t[static_cast<size_t>(kNaturalOrder[k])] =
+              precision ? (data[q + 1 + 2 * k] << 8 | data[q + 2 + 2 * k]) : data[q + 1 + k];
+        tables[static_cast<size_t>(id)] = std::move(t);
+        q += 1 + n;
+      }
+    }
+    pos += 2 + len;
+  }
+  if (tables[0].empty()) return std::nullopt;
+  int best = 0;
+  long best_err = std::numeric_limits<long>::max();
+  for (int quality = 1; quality <= 100; ++quality) {
+    long err = 0;
+    for (size_t i = 0; i < 64; ++i) err += std::labs(tables[0][i] - scaled(kStdLuminance[i], quality));
+    if (!tables[1].empty())
+      for (size_t i = 0; i < 64; ++i) err += std::labs(tables[1][i] - scaled(kStdChrominance[i], quality));
+    if (err < best_err) {  // ties keep the lower quality (fewer bytes)
+      best_err = err;
+      best = quality;
+    }
+  }
+  return best;
+}
+
+std::optional<int> estimate_jpeg_quality_of_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::vector<char> buf(64 * 1024);
+  in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+  const size_t n = static_cast<size_t>(in.gcount());
+  return estimate_jpeg_quality(reinterpret_cast<const uint8_t*>(buf.data()), n);
+}
+
+}  // namespace texdefrag

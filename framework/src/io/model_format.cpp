@@ -1,0 +1,135 @@
+// Format registry, page encodings and the direct output seam (see texdefrag/io/model_format.h).
+#include "texdefrag/io/model_format.h"
+
+#include "texdefrag/io/jpeg_quality.h"
+#include "texdefrag/io/obj_format.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+
+namespace fs = std::filesystem;
+
+namespace texdefrag {
+namespace {
+
+std::string canonical_or_absolute(const std::string& p) {
+  std::error_code ec;
+  fs::path c = fs::weakly_canonical(p, ec);
+  return ec ? fs::absolute(p).lexically_normal().string() : c.string();
+}
+
+}  // namespace
+
+Image LoadedModel::page_image(size_t p) const {
+  if (p < page_images.size() && !page_images[p].empty()) return page_images[p];
+  return read_image(mesh.pages[p].image_path);
+}
+
+const std::vector<const ModelFormat*>& model_formats() {
+  // note: the order is the order can_read is asked in; formats that sniff content come after the
+  // ones that decide by extension alone.
+  static const ObjFormat obj;
+  static const std::vector<const ModelFormat*> all = {&obj};
+  return all;
+}
+
+const ModelFormat* find_model_format(const std::string& name) {
+  for (const ModelFormat* f : model_formats())
+    if (f->name() == name) return f;
+  return nullptr;
+}
+
+const ModelFormat& format_for_input(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw FormatError(path + ": no such file");
+  if (!fs::is_regular_file(path, ec)) throw FormatError(path + ": not a regular file");
+  for (const ModelFormat* f : model_formats())
+    if (f->can_read(path)) return *f;
+  std::string names;
+  for (const ModelFormat* f : model_formats()) names += (names.empty() ? "" : ", ") + f->name();
+  throw FormatError(path + ": no model format reads this file (known formats: " + names + ")");
+}
+
+std::string lower_extension(const std::string& path) {
+  std::string e = fs::path(path).extension().string();
+  if (!e.empty()) e.erase(0, 1);
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return e;
+}
+
+std::string sniff_image_format(const uint8_t* data, size_t size, const std::string& name) {
+  if (size >= 3 && data[0] == 0xFF && data[1] == 0xD8 && data[2] == 0xFF) return "jpeg";
+  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
+  if (size >= 8 && std::equal(kPng, kPng + 8, data)) return "png";
+  std::string e = lower_extension(name);
+  return e == "jpg" ? "jpeg" : e;
+}
+
+PageEncoding page_encoding_of_file(const std::string& path) {
+  PageEncoding enc;
+  std::error_code ec;
+  enc.bytes = static_cast<size_t>(fs::file_size(path, ec));
+  if (ec) enc.bytes = 0;
+  std::ifstream in(path, std::ios::binary);
+  std::vector<char> head(16);
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  enc.format = sniff_image_format(reinterpret_cast<const uint8_t*>(head.data()), static_cast<size_t>(in.gcount()), path);
+  if (enc.format == "jpeg") enc.jpeg_quality = estimate_jpeg_quality_of_file(path);
+  return enc;
+}
+
+DirectOutputFiles::DirectOutputFiles(std::string dir, std::vector<std::string> protected_paths)
+    : dir_(std::move(dir)) {
+  for (const std::string& p : protected_paths) protected_.push_back(canonical_or_absolute(p));
+}
+
+std::string DirectOutputFiles::path_for(const std::string& name) {
+  const fs::path rel(name);
+  if (name.empty() || rel.is_absolute())
+    throw FormatError(name + ": output names are relative paths under the output folder");
+  for (const auto& part : rel)
+    if (part == "..") throw FormatError(name + ": output name leaves the output folder");
+  if (std::find(claimed_.begin(), claimed_.end(), name) != claimed_.end())
+    throw FormatError(final_path(name) + ": written twice in one run");
+  const std::string path = final_path(name);
+  const std::string canon = canonical_or_absolute(path);
+  if (std::find(protected_.begin(), protected_.end(), canon) != protected_.end())
+    throw FormatError("refusing to overwrite input file " + path);
+  fs::create_directories(fs::path(path).parent_path());
+  claimed_.push_back(name);
+  return path;
+}
+
+std::string DirectOutputFiles::final_path(const std::string& name) const { return (fs::path(dir_) / name).string(); }
+
+}  // namespace texdefrag
+
+namespace texdefrag {
+
+PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& image_format, int jpeg_quality,
+                                     bool match_input_quality) {
+  if (image_format != "input" && image_format != "png" && image_format != "jpeg")
+    throw FormatError("output.image_format: '" + image_format + "' is not one of input, png, jpeg");
+  std::vector<uint8_t> used(in.mesh.pages.size(), 0);
+  for (const Face& f : in.mesh.faces)
+    if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
+  size_t textured_pages = 0, jpeg_pages = 0;
+  std::optional<int> quality;
+  for (size_t p = 0; p < used.size(); ++p) {
+    if (!used[p]) continue;
+    ++textured_pages;
+    const PageEncoding* e = p < in.page_encodings.size() ? &in.page_encodings[p] : nullptr;
+    if (!e || e->format != "jpeg") continue;
+    ++jpeg_pages;
+    if (e->jpeg_quality) quality = std::max(quality.value_or(1), *e->jpeg_quality);
+  }
+  const bool all_jpeg = textured_pages > 0 && jpeg_pages == textured_pages;
+  PageWriteOptions o;
+  o.format = image_format == "jpeg" || (image_format == "input" && all_jpeg) ? ImageFormat::Jpeg : ImageFormat::Png;
+  o.jpeg_quality = match_input_quality && quality ? *quality : jpeg_quality;
+  return o;
+}
+
+}  // namespace texdefrag

@@ -1,0 +1,60 @@
+// The OBJ format behind ModelFormat (see texdefrag/io/obj_format.h).
+#include "texdefrag/io/obj_format.h"
+
+#include "texdefrag/io/obj.h"
+
+#include <filesystem>
+
+namespace fs = std::filesystem;
+
+namespace texdefrag {
+
+bool ObjFormat::can_read(const std::string& path) const { return lower_extension(path) == "obj"; }
+
+LoadedModel ObjFormat::read(const std::string& path) const {
+  LoadedModel m;
+  m.path = path;
+  m.format = name();
+  m.mesh = read_obj(path);
+  m.page_images.resize(m.mesh.pages.size());
+  m.input_files.push_back(path);
+  for (const Page& p : m.mesh.pages) {
+    m.input_files.push_back(p.image_path);
+    m.page_encodings.push_back(page_encoding_of_file(p.image_path));
+  }
+  return m;
+}
+
+WriteResult ObjFormat::write(const LoadedModel& in, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
+                             const std::string& stem, const PageWriteOptions& page_options,
+                             OutputFiles& files) const {
+  if (pages.size() != out_mesh.pages.size())
+    throw FormatError(files.final_path(output_name(stem)) + ": " + std::to_string(pages.size()) + " page images for " +
+                      std::to_string(out_mesh.pages.size()) + " pages");
+  WriteResult r;
+  r.main_file = files.final_path(output_name(stem));
+  r.files.push_back(r.main_file);
+  std::vector<std::string> image_files;
+  for (size_t p = 0; p < pages.size(); ++p) {
+    const std::string name = fs::path(out_mesh.pages[p].image_path).filename().string();
+    const std::string path = files.path_for(name);
+    write_image(path, pages[p], page_options.format, page_options.jpeg_quality);
+    r.page_bytes += static_cast<size_t>(fs::file_size(path));
+    image_files.push_back(files.final_path(name));
+  }
+  ObjWriteOptions wo;
+  wo.protected_paths = in.input_files;
+  wo.mtl_name = stem + ".mtl";
+  const std::string obj_path = files.path_for(output_name(stem));
+  if (!out_mesh.materials.empty()) {
+    const std::string mtl_path = files.path_for(wo.mtl_name);
+    if (fs::path(mtl_path).parent_path() != fs::path(obj_path).parent_path())
+      throw FormatError(mtl_path + ": the MTL must be written beside " + obj_path);
+    r.files.push_back(files.final_path(wo.mtl_name));
+  }
+  write_obj(out_mesh, obj_path, wo);
+  r.files.insert(r.files.end(), image_files.begin(), image_files.end());
+  return r;
+}
+
+}  // namespace texdefrag
