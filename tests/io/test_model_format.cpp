@@ -117,8 +117,9 @@ TEST(ModelFormat, ObjWritesWhatWriteObjWrites) {
 
   TexturedMesh out = in.mesh;
   out.pages[0].image_path = dir + "/out/grid_page0.png";
-  DirectOutputFiles files(dir + "/out", in.input_files);
+  OutputSet files(dir + "/out", in.input_files);
   const WriteResult r = format.write(in, out, {page}, "grid", PageWriteOptions{}, files);
+  files.commit();
   EXPECT_EQ(r.main_file, dir + "/out/grid.obj");
   EXPECT_EQ(r.files.size(), 3u);  // obj, mtl, page
   EXPECT_EQ(r.page_bytes, fs::file_size(dir + "/out/grid_page0.png"));
@@ -128,7 +129,7 @@ TEST(ModelFormat, ObjWritesWhatWriteObjWrites) {
   EXPECT_EQ(slurp(dir + "/out/grid.mtl"), slurp(dir + "/direct/grid.mtl"));
 
   // Writing onto an input is refused, naming the file.
-  DirectOutputFiles onto_input(dir + "/in", in.input_files);
+  OutputSet onto_input(dir + "/in", in.input_files);
   try {
     format.write(in, in.mesh, {page}, "grid", PageWriteOptions{}, onto_input);
     ADD_FAILURE() << "expected a refusal";

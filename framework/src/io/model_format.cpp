@@ -14,12 +14,6 @@ namespace fs = std::filesystem;
 namespace texdefrag {
 namespace {
 
-std::string canonical_or_absolute(const std::string& p) {
-  std::error_code ec;
-  fs::path c = fs::weakly_canonical(p, ec);
-  return ec ? fs::absolute(p).lexically_normal().string() : c.string();
-}
-
 }  // namespace
 
 Image LoadedModel::page_image(size_t p) const {
@@ -79,30 +73,6 @@ PageEncoding page_encoding_of_file(const std::string& path) {
   if (enc.format == "jpeg") enc.jpeg_quality = estimate_jpeg_quality_of_file(path);
   return enc;
 }
-
-DirectOutputFiles::DirectOutputFiles(std::string dir, std::vector<std::string> protected_paths)
-    : dir_(std::move(dir)) {
-  for (const std::string& p : protected_paths) protected_.push_back(canonical_or_absolute(p));
-}
-
-std::string DirectOutputFiles::path_for(const std::string& name) {
-  const fs::path rel(name);
-  if (name.empty() || rel.is_absolute())
-    throw FormatError(name + ": output names are relative paths under the output folder");
-  for (const auto& part : rel)
-    if (part == "..") throw FormatError(name + ": output name leaves the output folder");
-  if (std::find(claimed_.begin(), claimed_.end(), name) != claimed_.end())
-    throw FormatError(final_path(name) + ": written twice in one run");
-  const std::string path = final_path(name);
-  const std::string canon = canonical_or_absolute(path);
-  if (std::find(protected_.begin(), protected_.end(), canon) != protected_.end())
-    throw FormatError("refusing to overwrite input file " + path);
-  fs::create_directories(fs::path(path).parent_path());
-  claimed_.push_back(name);
-  return path;
-}
-
-std::string DirectOutputFiles::final_path(const std::string& name) const { return (fs::path(dir_) / name).string(); }
 
 }  // namespace texdefrag
 

@@ -27,7 +27,7 @@ LoadedModel ObjFormat::read(const std::string& path) const {
 
 WriteResult ObjFormat::write(const LoadedModel& in, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
                              const std::string& stem, const PageWriteOptions& page_options,
-                             OutputFiles& files) const {
+                             OutputSet& files) const {
   if (pages.size() != out_mesh.pages.size())
     throw FormatError(files.final_path(output_name(stem)) + ": " + std::to_string(pages.size()) + " page images for " +
                       std::to_string(out_mesh.pages.size()) + " pages");

@@ -346,8 +346,9 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
                                                       config.output.get_bool("match_input_quality"));
       const std::string ext = po.format == ImageFormat::Jpeg ? "jpg" : "png";
       TexturedMesh out = make_output_mesh(mesh, ctx.atlas, ctx.layout, stem, ext, options.output_dir);
-      DirectOutputFiles files(options.output_dir, model.input_files);
+      OutputSet files(options.output_dir, model.input_files, options.input);
       const WriteResult wr = format.write(model, out, out_pages, stem, po, files);
+      files.commit();
       node["format"] = format.name();
       node["image_format"] = ext == "jpg" ? "jpeg" : "png";
       if (po.format == ImageFormat::Jpeg) node["jpeg_quality"] = po.jpeg_quality;

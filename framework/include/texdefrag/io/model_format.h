@@ -12,13 +12,14 @@
 // - write() receives the model read, the output mesh (same faces, same order, same positions; new
 //   texture coordinates and pages, built by make_output_mesh), and the output page images. It
 //   writes the same structure the input had (file names, node structure, everything but texture
-//   coordinates and images) through an OutputFiles, and returns what it wrote.
+//   coordinates and images) through the run's OutputSet, and returns what it wrote.
 // - Errors are FormatError (or ObjError/ImageError from the OBJ and image code) naming the file
 //   (and, for a file referenced by another, the referencing file).
 #pragma once
 
 #include "texdefrag/core/mesh.h"
 #include "texdefrag/io/image.h"
+#include "texdefrag/io/output_set.h"
 
 #include <nlohmann/json.hpp>
 
@@ -74,19 +75,6 @@ struct LoadedModel {
   Image page_image(size_t p) const;
 };
 
-/// Where writers put files. The seam to the one write service (io/output_set.h): writers never
-/// open final paths themselves.
-class OutputFiles {
- public:
-  virtual ~OutputFiles() = default;
-  /// Claims `name` (a plain relative path under the output folder, e.g. "tile.osgb") and returns
-  /// the path to write it to now (its folder exists). Throws when the name is refused (protected
-  /// input, claimed twice, escapes the folder).
-  virtual std::string path_for(const std::string& name) = 0;
-  /// Where `name` appears once the output is complete.
-  virtual std::string final_path(const std::string& name) const = 0;
-};
-
 /// What the output pages look like on disk or in the model.
 struct PageWriteOptions {
   ImageFormat format = ImageFormat::Png;
@@ -117,10 +105,13 @@ class ModelFormat {
   /// out_mesh: from make_output_mesh(in.mesh, ...): same faces in the same order, page i of its
   ///   pages is pages[i]; Page::image_path names the file an image-file format writes.
   /// pages: output page images, one per out_mesh.pages entry.
-  /// stem: output file stem; files: where to write; page_options: encoding of the pages.
+  /// stem: output file stem; page_options: encoding of the pages.
+  /// files: the run's one write service (io/output_set.h): every file is claimed with
+  ///   files.path_for(name) and appears under its final name only at files.commit(), which the
+  ///   caller does.
   virtual WriteResult write(const LoadedModel& in, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
                             const std::string& stem, const PageWriteOptions& page_options,
-                            OutputFiles& files) const = 0;
+                            OutputSet& files) const = 0;
 };
 
 /// Every built-in format, in the order they are tried.
@@ -151,19 +142,5 @@ PageEncoding page_encoding_of_file(const std::string& path);
 ///   JPEG pages (so no page is written at a lower quality than it was read).
 PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& image_format, int jpeg_quality,
                                      bool match_input_quality);
-
-/// An OutputFiles that writes straight to OUTDIR/name (creating folders), refusing protected
-/// paths (compared canonically). Used until the staged OutputSet (io/output_set.h) is on main.
-class DirectOutputFiles : public OutputFiles {
- public:
-  DirectOutputFiles(std::string dir, std::vector<std::string> protected_paths);
-  std::string path_for(const std::string& name) override;
-  std::string final_path(const std::string& name) const override;
-
- private:
-  std::string dir_;
-  std::vector<std::string> protected_;
-  std::vector<std::string> claimed_;
-};
 
 }  // namespace texdefrag

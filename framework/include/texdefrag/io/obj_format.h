@@ -18,7 +18,7 @@ class ObjFormat : public ModelFormat {
   /// output folder), then STEM.obj and STEM.mtl (write_obj).
   WriteResult write(const LoadedModel& in, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
                     const std::string& stem, const PageWriteOptions& page_options,
-                    OutputFiles& files) const override;
+                    OutputSet& files) const override;
 };
 
 }  // namespace texdefrag
