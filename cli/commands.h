@@ -9,4 +9,5 @@ namespace texdefrag::cli {
 CLI::App* add_eval_command(CLI::App& app, int& exit_code);   // eval/metrics
 CLI::App* add_bench_command(CLI::App& app, int& exit_code);  // eval/bench
 CLI::App* add_synth_command(CLI::App& app, int& exit_code);  // eval/synth
+CLI::App* add_buildings_command(CLI::App& app, int& exit_code);  // eval/buildings
 }  // namespace texdefrag::cli

@@ -203,6 +203,9 @@ int main(int argc, char** argv) {
 #ifdef TEXDEFRAG_HAVE_SYNTH
   cli::add_synth_command(app, exit_code);
 #endif
+#ifdef TEXDEFRAG_HAVE_BUILDINGS
+  cli::add_buildings_command(app, exit_code);
+#endif
 
   try {
     app.parse(argc, argv);
