@@ -14,7 +14,8 @@
 #pragma once
 
 #include "local_problem.h"
-#include "planarity.h"
+
+#include "common/planarity.h"
 
 #include "texdefrag/core/charts.h"
 #include "texdefrag/core/mesh.h"
@@ -50,7 +51,7 @@ struct MergeOptions {
   int max_attempts = 3;         ///< attempts per chart pair (a rejected pair is retried when a chart changes)
   int max_free_vertices = 2000; ///< cap on the free region (nearest wedges first)
   bool cross_page = true;       ///< allow merging charts whose texels lie on different input pages
-  PlanarityWeights weights;     ///< planarity index weights
+  detectors::CpiWeights weights;  ///< planarity index weights (detectors/common/planarity.h)
   SecondPass second_pass = SecondPass::None;          ///< merging across regions after the first queue
   Priority second_pass_priority = Priority::MMethod;  ///< order of the second pass
   double second_pass_local_bound = 0.5;  ///< local_bound during the (last step of the) second pass

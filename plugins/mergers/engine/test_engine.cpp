@@ -4,7 +4,6 @@
 #include "geometry2d.h"
 #include "local_problem.h"
 #include "merge_engine.h"
-#include "planarity.h"
 #include "test_support.h"
 
 #include "texdefrag/core/distortion.h"
@@ -100,31 +99,28 @@ TEST(MergeEngine, TrianglesOverlapByHand) {
   EXPECT_TRUE(any_triangle_overlap({T({6, 7, 8}, V(3, 3), V(4, 3), V(3, 4)), T({9, 10, 11}, V(3.2, 3.2), V(3.5, 3.2), V(3.2, 3.5))}, {}));
 }
 
-TEST(MergeEngine, PlanarityTermsByHand) {
-  EXPECT_DOUBLE_EQ(planarity_flat(Eigen::Vector3d(0, 2, 4)), 1.0);
-  EXPECT_DOUBLE_EQ(planarity_flat(Eigen::Vector3d(1, 2, 4)), 0.5);
-  EXPECT_DOUBLE_EQ(planarity_flat(Eigen::Vector3d(0, 0, 4)), 0.0);  // denominator 0
-  EXPECT_DOUBLE_EQ(planarity_compact(Eigen::Vector3d(0, 1, 4)), 0.25);
-  EXPECT_DOUBLE_EQ(planarity_compact(Eigen::Vector3d(0, 0, 0)), 0.0);
-  EXPECT_NEAR(planarity_normal(Vec3(0, 0, 1), Vec3(0, 0, -2)), 1.0, 1e-15);
-  EXPECT_NEAR(planarity_normal(Vec3(0, 0, 1), Vec3(1, 0, 0)), 0.0, 1e-15);
-  EXPECT_NEAR(planarity_normal(Vec3(0, 0, 1), Vec3(0, 1, 1).normalized()), 1 - std::sqrt(0.5), 1e-12);
-  EXPECT_DOUBLE_EQ(planarity_normal(Vec3::Zero(), Vec3(0, 0, 1)), 0.0);
-  EXPECT_NEAR(planarity_index(Eigen::Vector3d(0, 1, 4), Vec3(0, 0, 1), Vec3(0, 0, 1)),
-              0.4 * 1 + 0.3 * 0.25 + 0.3 * 1, 1e-15);
-}
-
-TEST(MergeEngine, MomentsOfAUnitSquare) {
-  Moments m;
+TEST(MergeEngine, PlanarityIsTheDetectorsModuleWithOrientedNormals) {
+  // The engine scores charts with detectors/common/planarity.h (one module, one orientation rule):
+  // normals oriented by the 3D winding, theta in [0, pi], the normal term 0 past 90 degrees.
+  detectors::PlaneMoments m;
   m.add_triangle({0, 0, 0}, {1, 0, 0}, {1, 1, 0});
   m.add_triangle({0, 0, 0}, {1, 1, 0}, {0, 1, 0});
-  Eigen::Vector3d ev, n;
-  m.plane(ev, n);
+  const detectors::PlaneFit fit = detectors::fit_plane(m);
   EXPECT_NEAR(m.area, 1.0, 1e-15);
-  EXPECT_NEAR(ev[0], 0.0, 1e-15);
-  EXPECT_NEAR(ev[1], 1.0 / 12, 1e-12);  // variance of a uniform [0,1] coordinate
-  EXPECT_NEAR(ev[2], 1.0 / 12, 1e-12);
-  EXPECT_NEAR(std::abs(n.z()), 1.0, 1e-12);
+  EXPECT_NEAR(fit.eigenvalues[0], 0.0, 1e-15);
+  // Variance of a uniform [0,1] coordinate; fit_plane's closed-form eigensolver is accurate to
+  // ~1e-9 relative on this doubled eigenvalue.
+  EXPECT_NEAR(fit.eigenvalues[1], 1.0 / 12, 1e-9);
+  EXPECT_NEAR(fit.eigenvalues[2], 1.0 / 12, 1e-9);
+  EXPECT_NEAR(fit.normal.z(), 1.0, 1e-12);  // counter-clockwise seen from +z: +z, not -z
+  const detectors::CpiWeights w;
+  EXPECT_NEAR(detectors::planarity_index(fit, detectors::normal_angle(fit.normal, Vec3(0, 0, 2)), w),
+              0.4 * 1 + 0.3 * 1 + 0.3 * 1, 1e-8);
+  // A region facing the other way: theta = pi, the normal term is 0 (it was 1 in the engine's
+  // former orientation-free copy).
+  EXPECT_NEAR(detectors::planarity_index(fit, detectors::normal_angle(fit.normal, Vec3(0, 0, -1)), w),
+              0.4 * 1 + 0.3 * 1, 1e-8);
+  EXPECT_NEAR(detectors::planarity_index(fit, detectors::normal_angle(fit.normal, Vec3::Zero()), w), 0.7, 1e-8);
 }
 
 TEST(MergeEngine, SignedSingularValuesMatchCore) {

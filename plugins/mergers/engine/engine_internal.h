@@ -1,0 +1,317 @@
+// The merge engine's internals (docs/mergers.md "What one merge does"): per-chart state, the queue
+// entries and the Engine whose try_merge runs one move as named steps (align, weld, free region,
+// solve, acceptance checks, commit). Internal to plugins/mergers: merge_engine.h is the interface;
+// this header exists so the engine's tests can run each step on a hand-built mesh.
+#pragma once
+
+#include "geometry2d.h"
+#include "local_problem.h"
+#include "merge_engine.h"
+
+#include "common/planarity.h"
+
+#include "texdefrag/core/charts.h"
+#include "texdefrag/core/mesh.h"
+#include "texdefrag/core/topology.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <queue>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+namespace texdefrag::merge::detail {
+
+/// A triangle or segment spanning more cells than this goes to its grid's `big` list instead.
+constexpr long long kMaxTriCells = 64;
+
+/// Items (faces or edges) of one chart in a uniform hash grid: cell -> item ids. Each item is
+/// inserted with the cell range of its box (x0, y0, x1, y1), kept by the caller for its removal.
+struct CellGrid {
+  std::unordered_map<long long, std::vector<int>> cells;
+  std::vector<int> big;  ///< items spanning more than kMaxTriCells cells (always tested)
+
+  /// x in the high 32 bits, y in the low ones (unsigned shift: cells can be negative).
+  static long long key(long long x, long long y) {
+    return static_cast<long long>((static_cast<unsigned long long>(x) << 32) ^
+                                  (static_cast<unsigned long long>(y) & 0xffffffffULL));
+  }
+  /// Inserts `id` over the cells of r; an item spanning too many cells goes to `big` and r becomes
+  /// the empty range.
+  void insert(int id, std::array<int, 4>& r);
+  /// Removes `id`, inserted with range r.
+  void remove(int id, const std::array<int, 4>& r);
+  void clear() {
+    cells.clear();
+    big.clear();
+  }
+  /// Calls fn(id) for every item of `big` and of every cell of the ranges rs (an item can come more
+  /// than once: callers de-duplicate).
+  template <class Fn>
+  void query(const std::vector<std::array<int, 4>>& rs, Fn&& fn) const {
+    for (int id : big) fn(id);
+    for (const auto& r : rs)
+      for (int y = r[1]; y <= r[3]; ++y)
+        for (int x = r[0]; x <= r[2]; ++x) {
+          auto it = cells.find(key(x, y));
+          if (it == cells.end()) continue;
+          for (int id : it->second) fn(id);
+        }
+  }
+  /// Number of cells of range r.
+  static double cell_count(const std::array<int, 4>& r) {
+    return (static_cast<double>(r[2]) - r[0] + 1) * (static_cast<double>(r[3]) - r[1] + 1);
+  }
+};
+
+struct ChartInfo {
+  bool alive = true;
+  bool locked = false;
+  bool self_overlap = false;  ///< some of its triangles overlap (inherited from the input)
+  int version = 0;
+  int region = -1;
+  int page = kNoPage;
+  std::map<int, double> page_area;  ///< input UV area (texels^2) per input page of its faces
+  double uv_area = 0;   ///< input UV area of its faces (texels^2): stable under optimisation
+  double border = 0;    ///< current UV border length (texels)
+  double planarity = 0; ///< cached index for the current version
+  detectors::PlaneMoments mom;  ///< 3D moments of its faces (relative to the mesh's mean position)
+  std::vector<int> faces;
+  /// Boundary edges (face, local edge) in the order they became part of this chart; entries whose
+  /// edge is no longer a boundary edge (ebnd_ == 0) are tombstones, compacted in order when they
+  /// outnumber the live ones (the M-method's border sum adds the live entries in this order).
+  std::vector<std::pair<int, int>> boundary;
+  size_t boundary_dead = 0;
+  CellGrid segs;  ///< its live boundary segments (current positions), edge ids 3f+k
+  std::unordered_map<int, std::vector<int>> adj;       ///< neighbour chart -> seam edge ids
+  CellGrid tris;  ///< its triangles with input UV area > 0 (current positions)
+};
+
+/// Merges the M-method's island lookahead may look ahead (its IslandLookahead(a, b, 5)).
+constexpr int kIslandLookaheadSteps = 5;
+
+struct Entry {
+  double score;  ///< larger first
+  int a, b;      ///< a < b
+  int va, vb;    ///< chart versions when scored
+  int refusal;   ///< 0 none, 1 seam_too_short, 2 alignment_error
+  bool operator<(const Entry& o) const { return score < o.score; }
+};
+
+/// One merge attempt: what each step of try_merge hands to the next.
+struct Move {
+  int big = -1, small = -1;                ///< the chart kept and the chart absorbed (smaller UV area)
+  std::vector<std::pair<int, int>> pairs;  ///< (bigger chart's wedge, smaller chart's wedge) at seam vertices
+  std::vector<int> seam_edges;             ///< the seam's topology edges
+  std::vector<int> reps;                   ///< weld: one representative wedge per welded vertex
+  double dmax = 0;                         ///< weld: largest weld displacement
+  std::vector<int> free_w;                 ///< free region: free wedges, nearest first
+  std::vector<int> prob_faces;             ///< solve: faces of the local problem
+  bool solved = false;                     ///< solve: the solver reported a usable solution
+  std::vector<int> changed;                ///< faces whose shape changed beyond the rigid motion
+  std::vector<double> new_err;             ///< checks: weighted ARAP error of each changed face
+  double new_sum = 0;                      ///< checks: the global weighted error sum after the move
+  std::vector<int> dead;                   ///< checks: live boundary edges the weld made interior
+  std::vector<int> moved_ids;              ///< checks: live boundary edges with a moved wedge
+};
+
+class Engine {
+ public:
+  Engine(const TexturedMesh& mesh, const Topology& topo, Atlas& at, const std::vector<int>& face_region,
+         const MergeOptions& opt, LocalSolver& solver)
+      : mesh_(mesh), topo_(topo), at_(at), region_(face_region), opt_(opt), solver_(solver) {}
+
+  /// The whole run: setup, the region-constrained queue, the optional second pass, compaction.
+  MergeReport run(const Progress& progress);
+
+  // ---- the steps, public for the engine's tests (run() calls setup() first)
+  /// Builds rest shapes, charts, seams and grids from the atlas (once, before any move).
+  void setup();
+  /// One merge of charts a and b: begin_move, align, weld, free_region, solve, check, then commit or
+  /// rollback. Returns false with `reason` set (a rejection name of docs/mergers.md) when rejected.
+  bool try_merge(int a, int b, std::string& reason);
+  /// Starts a move: the bigger chart (by input UV area) keeps its id; the seam's wedge pairs.
+  Move begin_move(int a, int b);
+  /// Step 1: least-squares rigid motion of the smaller chart onto the bigger over the seam's wedge
+  /// pairs (never a reflection).
+  void align(Move& mv);
+  /// Step 2: welds each group of paired wedges at its mean (one wedge of the bigger chart), repoints
+  /// the corners and gives the smaller chart's faces the bigger chart's id.
+  void weld(Move& mv);
+  /// Whether more than half of the seam edges are folded after the weld (rejected as `orientation`).
+  bool seam_mostly_folded(const Move& mv) const;
+  /// Step 3: wedges within alpha * dmax of the welded ones (Dijkstra over UV lengths), nearest first.
+  void free_region(Move& mv);
+  /// Step 4: solves the local problem on the free wedges and writes the result into the atlas;
+  /// fills mv.prob_faces, mv.solved and mv.changed.
+  void solve(Move& mv);
+  /// Step 5: the acceptance checks, cheapest first; the rejection reason, or nullptr when accepted.
+  const char* check(Move& mv);
+  /// Step 6: makes an accepted move permanent (distortion sums, grids, boundary, chart data, adjacency).
+  void commit(Move& mv);
+  /// Restores the atlas exactly as it was before the move (positions, corners, charts).
+  void rollback();
+
+  const ChartInfo& chart_info(int c) const { return charts_[static_cast<size_t>(c)]; }
+  /// Global area-weighted ARAP distortion of the current atlas (maintained incrementally).
+  double global_distortion() const { return weight_sum_ > 0 ? err_sum_ / weight_sum_ : 0; }
+
+ private:
+  // ---- static data
+  void setup_rest_shapes();
+  void setup_charts();
+  void setup_seams_and_grids();
+  int corner_of(int f, int v) const {
+    const auto& fv = topo_.face_vertex[static_cast<size_t>(f)];
+    for (int i = 0; i < 3; ++i)
+      if (fv[static_cast<size_t>(i)] == v) return i;
+    return -1;
+  }
+  Vec2& uv(int w) { return at_.wedge_uv[static_cast<size_t>(w)]; }
+  Tri2 tri2(int f) const {
+    Tri2 t;
+    for (int k = 0; k < 3; ++k) {
+      t.w[static_cast<size_t>(k)] = wedge(f, k);
+      t.p[static_cast<size_t>(k)] = at_.wedge_uv[static_cast<size_t>(wedge(f, k))];
+    }
+    return t;
+  }
+  int wedge(int f, int k) const { return at_.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)]; }
+  int chart(int f) const { return at_.face_chart[static_cast<size_t>(f)]; }
+  ChartInfo& C(int c) { return charts_[static_cast<size_t>(c)]; }
+  Mat2 jacobian(int f) const;
+  double weighted_err(int f) const;
+  bool is_boundary(int f, int k, int c) const;
+  double edge_uv_len(int f, int k) const;
+  /// True when the faces of chart c around wedge w wrap: angle sum >= 2 pi at a boundary wedge,
+  /// > 2 pi at an interior one (a single closed fan has exactly 2 pi, up to rounding).
+  bool fan_overlaps(int w, int c) const;
+  template <class Fn>
+  void faces_of_wedge(int w, int c, Fn&& fn) const;
+  /// Whether the two faces of seam edge ei lie on the same side of it in UV (a folded weld).
+  bool seam_edge_folded(int ei) const;
+
+  // ---- the acceptance checks (check() runs them in this order)
+  const char* check_shapes(const Move& mv);
+  const char* check_folds(const Move& mv) const;
+  const char* check_distortion(Move& mv);
+  const char* check_fans(const Move& mv);
+  const char* check_boundary(Move& mv);
+  const char* check_triangles(const Move& mv);
+  // ---- commit parts
+  void commit_grids(const Move& mv);
+  void commit_boundary(const Move& mv);
+  void commit_chart(const Move& mv);
+
+  // ---- queue
+  void refresh_planarity(int c);
+  void push_pair(int a, int b);
+  double score(int a, int b, int& refusal);
+  /// The M-method's exception to its short-seam refusal: true when a sequence of at most max_steps
+  /// merges involving a and b can close a UV island, i.e. for some neighbour c of a or b, the charts
+  /// reachable from a without passing through c are found within max_steps pushes of a depth-first
+  /// visit (so they form an island whose only neighbour is c). False at once when a or b has more
+  /// than max_steps neighbours.
+  bool island_lookahead(int a, int b, int max_steps) const;
+  bool candidate(int a, int b) const;
+  void pair_points(int big, int small, std::vector<std::pair<int, int>>& pairs);
+  void drain(const Progress& progress, double base, double span);
+  void start_second_pass(double local_bound);
+
+  const TexturedMesh& mesh_;
+  const Topology& topo_;
+  Atlas& at_;
+  const std::vector<int>& region_;
+  MergeOptions opt_;   ///< priority and local_bound switch to the second pass's values when it starts
+  bool across_ = false;  ///< second pass: regions are ignored
+  LocalSolver& solver_;
+  MergeReport rep_;
+
+  std::vector<int> vf_off_, vf_;       ///< welded vertex -> textured faces (CSR)
+  std::vector<Mat2> rest_inv_;         ///< inverse rest edge matrix (input UV triangle, texels)
+  std::vector<double> rest_w_;         ///< input UV area (0: no energy)
+  std::vector<double> err_w_;          ///< weight * ARAP error, per face, current atlas
+  double err_sum_ = 0, weight_sum_ = 0;
+  std::vector<Vec3> region_normal_;
+  std::vector<ChartInfo> charts_;
+  std::priority_queue<Entry> queue_;
+  struct PairState {
+    int attempts = 0;
+    double penalty = 1;        ///< the M-method's penalty, doubled on each rejection
+    int va = -1, vb = -1;      ///< versions of the newest queue entry of this pair
+  };
+  std::unordered_map<long long, PairState> pairs_;
+  PairState& pair_state(int a, int b) {
+    return pairs_[static_cast<long long>(std::min(a, b)) << 32 | static_cast<long long>(std::max(a, b))];
+  }
+  std::vector<double> refreshed_area_;  ///< uv_area of a chart when all its pairs were last re-pushed
+  double free_total_ = 0;
+  size_t free_count_ = 0;
+
+  // ---- per-move scratch with epoch stamps
+  int epoch_ = 0;
+  std::vector<int> wstamp_, wmoved_, wrep_, wvisit_, wdone_, wfan_, fstamp_, fchanged_;
+  std::vector<double> wdist_;
+  // ---- per-chart triangle grids (cell size tri_cell_, shared by all charts)
+  double tri_cell_ = 1;
+  std::vector<int> fowner_;                 ///< chart whose grid holds face f (-1: none)
+  std::vector<std::array<int, 4>> fcells_;  ///< cell range x0, y0, x1, y1 it was inserted with
+  std::vector<int> fseen_;                  ///< query stamps
+  int seen_stamp_ = 0;
+  void tri_box(int f, Vec2& lo, Vec2& hi) const {
+    lo = hi = at_.wedge_uv[static_cast<size_t>(wedge(f, 0))];
+    for (int k = 1; k < 3; ++k) {
+      lo = lo.cwiseMin(at_.wedge_uv[static_cast<size_t>(wedge(f, k))]);
+      hi = hi.cwiseMax(at_.wedge_uv[static_cast<size_t>(wedge(f, k))]);
+    }
+  }
+  int cell_of(double x) const {
+    const double q = std::floor(x / tri_cell_);
+    return static_cast<int>(std::max(-1e9, std::min(1e9, q)));
+  }
+  /// Cell range of a grid query for the box [lo, hi] of an item of size len, widened by more than
+  /// the overlap tests' touching tolerance (1e-7 x the longest edge of a pair).
+  std::array<int, 4> query_cells(const Vec2& lo, const Vec2& hi, double len) const {
+    const double margin = 1e-6 * len + 1e-4 * tri_cell_;
+    return {cell_of(lo.x() - margin), cell_of(lo.y() - margin), cell_of(hi.x() + margin), cell_of(hi.y() + margin)};
+  }
+  void grid_insert(int c, int f);
+  void grid_remove(int f);
+  // ---- per-chart boundary-segment grids (same cells as the triangle grids); edge id e = 3f + k
+  std::vector<char> ebnd_;                  ///< edge e is a live boundary edge of chart(f)
+  std::vector<int> eowner_;                 ///< chart whose segment grid holds edge e (-1: none)
+  std::vector<std::array<int, 4>> ecells_;  ///< cell range it was inserted with
+  std::vector<int> edead_, emoved_, eseen_; ///< per-move stamps (epoch_, seen_stamp_)
+  void seg_insert(int c, int e);
+  void seg_remove(int e);
+  void compact_boundary(ChartInfo& ch);
+  // ---- rollback log of the current move
+  std::vector<std::pair<int, Vec2>> saved_uv_;
+  std::vector<std::pair<int, std::array<int, 3>>> saved_fw_;
+  int saved_small_ = -1;
+  void save_uv(int w) {
+    if (wstamp_[static_cast<size_t>(w)] == epoch_) return;
+    wstamp_[static_cast<size_t>(w)] = epoch_;
+    saved_uv_.emplace_back(w, uv(w));
+  }
+};
+
+template <class Fn>
+void Engine::faces_of_wedge(int w, int c, Fn&& fn) const {
+  const int v = at_.wedge_vertex[static_cast<size_t>(w)];
+  for (int i = vf_off_[static_cast<size_t>(v)]; i < vf_off_[static_cast<size_t>(v) + 1]; ++i) {
+    const int f = vf_[static_cast<size_t>(i)];
+    if (chart(f) != c) continue;
+    for (int k = 0; k < 3; ++k)
+      if (wedge(f, k) == w) {
+        fn(f, k);
+        break;
+      }
+  }
+}
+
+}  // namespace texdefrag::merge::detail

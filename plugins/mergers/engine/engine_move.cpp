@@ -1,0 +1,558 @@
+// One merge move of the engine, step by step (docs/mergers.md "What one merge does", steps 3-7):
+// align, weld, free region, solve, acceptance checks, commit (or rollback).
+#include "engine_internal.h"
+
+#include "texdefrag/core/distortion.h"
+
+#include <chrono>
+#include <functional>
+#include <limits>
+
+namespace texdefrag::merge::detail {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+}  // namespace
+
+bool Engine::try_merge(int a, int b, std::string& reason) {
+  Move mv = begin_move(a, b);
+  align(mv);
+  weld(mv);
+  if (seam_mostly_folded(mv)) {
+    reason = "orientation";
+    rollback();
+    return false;
+  }
+  free_region(mv);
+  solve(mv);
+  struct CheckTimer {
+    double& acc;
+    Clock::time_point t;
+    ~CheckTimer() { acc += seconds_since(t); }
+  } timer{rep_.check_seconds, Clock::now()};
+  if (const char* why = check(mv)) {
+    reason = why;
+    rollback();
+    return false;
+  }
+  commit(mv);
+  return true;
+}
+
+Move Engine::begin_move(int a, int b) {
+  ++epoch_;
+  ++rep_.attempted;
+  saved_uv_.clear();
+  saved_fw_.clear();
+  Move mv;
+  mv.big = C(a).uv_area >= C(b).uv_area ? a : b;
+  mv.small = mv.big == a ? b : a;
+  saved_small_ = mv.small;
+  pair_points(mv.big, mv.small, mv.pairs);
+  mv.seam_edges = C(mv.big).adj[mv.small];
+  return mv;
+}
+
+void Engine::align(Move& mv) {
+  std::vector<Vec2> p, q;
+  for (const auto& [wb, ws] : mv.pairs) {
+    q.push_back(uv(wb));
+    p.push_back(uv(ws));
+  }
+  const Rigid2 m = fit_rigid(p, q);
+  for (int f : C(mv.small).faces)
+    for (int k = 0; k < 3; ++k) {
+      const int w = wedge(f, k);
+      if (wstamp_[static_cast<size_t>(w)] == epoch_) continue;
+      save_uv(w);
+      wmoved_[static_cast<size_t>(w)] = epoch_;
+      uv(w) = m(uv(w));
+    }
+}
+
+void Engine::weld(Move& mv) {
+  // Union the pairs; each group moves to its mean; representative = a wedge of the bigger chart.
+  std::unordered_map<int, int> parent;
+  auto find = [&](int x) {
+    auto it = parent.find(x);
+    if (it == parent.end()) {
+      parent[x] = x;
+      return x;
+    }
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (const auto& [wb, ws] : mv.pairs) {
+    const int rb = find(wb), rs = find(ws);
+    if (rb != rs) parent[std::max(rb, rs)] = std::min(rb, rs);
+  }
+  std::unordered_map<int, std::vector<int>> groups;
+  for (const auto& [w, par] : parent) {
+    (void)par;
+    groups[find(w)].push_back(w);
+  }
+  std::unordered_map<int, int> rep_of;
+  std::unordered_map<int, char> is_big;
+  for (const auto& pr : mv.pairs) is_big[pr.first] = 1;
+  for (auto& [root, members] : groups) {
+    (void)root;
+    std::sort(members.begin(), members.end());
+    // Representative: the smallest wedge of the bigger chart in the group.
+    int r = -1;
+    for (int w : members)
+      if (is_big.count(w)) {
+        r = w;
+        break;
+      }
+    Vec2 mean = Vec2::Zero();
+    for (int w : members) mean += uv(w);
+    mean /= static_cast<double>(members.size());
+    for (int w : members) {
+      mv.dmax = std::max(mv.dmax, (uv(w) - mean).norm());
+      save_uv(w);
+      wmoved_[static_cast<size_t>(w)] = epoch_;
+      uv(w) = mean;
+      rep_of[w] = r;
+    }
+    mv.reps.push_back(r);
+    wrep_[static_cast<size_t>(r)] = epoch_;
+  }
+  // Repoint corners of both charts at the welded vertices.
+  for (const auto& [root, members] : groups) {
+    (void)root;
+    const int v = at_.wedge_vertex[static_cast<size_t>(members.front())];
+    for (int i = vf_off_[static_cast<size_t>(v)]; i < vf_off_[static_cast<size_t>(v) + 1]; ++i) {
+      const int f = vf_[static_cast<size_t>(i)];
+      const int c = chart(f);
+      if (c != mv.big && c != mv.small) continue;
+      for (int k = 0; k < 3; ++k) {
+        auto it = rep_of.find(wedge(f, k));
+        if (it == rep_of.end() || it->second == wedge(f, k)) continue;
+        if (fstamp_[static_cast<size_t>(f)] != epoch_) {
+          fstamp_[static_cast<size_t>(f)] = epoch_;
+          saved_fw_.emplace_back(f, at_.face_wedge[static_cast<size_t>(f)]);
+        }
+        at_.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)] = it->second;
+      }
+    }
+  }
+  for (int f : C(mv.small).faces) at_.face_chart[static_cast<size_t>(f)] = mv.big;
+}
+
+bool Engine::seam_edge_folded(int ei) const {
+  const Edge& e = topo_.edges[static_cast<size_t>(ei)];
+  double s[2];
+  for (int i = 0; i < 2; ++i) {
+    const EdgeIncidence& in = topo_.edge_faces[static_cast<size_t>(e.first_incidence + i)];
+    const int f = in.face, k = in.local;
+    const auto& P = at_.wedge_uv;
+    s[i] = orient2d(P[static_cast<size_t>(wedge(f, 0))], P[static_cast<size_t>(wedge(f, 1))],
+                    P[static_cast<size_t>(wedge(f, 2))]);
+    // Same-sidedness of the opposite corners <=> equal orientation along opposite traversal.
+    const bool forward = topo_.face_vertex[static_cast<size_t>(f)][static_cast<size_t>(k)] == e.a;
+    if (!forward) s[i] = -s[i];
+  }
+  // Traversed a->b, face 0's third corner is on side sign(s0); face 1's on side sign(s1).
+  return !(s[0] * s[1] < 0);
+}
+
+bool Engine::seam_mostly_folded(const Move& mv) const {
+  size_t nfold = 0;
+  for (int ei : mv.seam_edges) nfold += seam_edge_folded(ei) ? 1 : 0;
+  return 2 * nfold > mv.seam_edges.size();
+}
+
+void Engine::free_region(Move& mv) {
+  // Dijkstra over UV edge lengths from the welded wedges, radius alpha * dmax.
+  const double radius = opt_.alpha * mv.dmax;
+  using QE = std::pair<double, int>;
+  std::priority_queue<QE, std::vector<QE>, std::greater<QE>> pq;
+  auto dist = [&](int w) -> double& {
+    if (wvisit_[static_cast<size_t>(w)] != epoch_) {
+      wvisit_[static_cast<size_t>(w)] = epoch_;
+      wdist_[static_cast<size_t>(w)] = std::numeric_limits<double>::infinity();
+    }
+    return wdist_[static_cast<size_t>(w)];
+  };
+  for (int r : mv.reps) {
+    dist(r) = 0;
+    pq.emplace(0.0, r);
+  }
+  while (!pq.empty() && static_cast<int>(mv.free_w.size()) < opt_.max_free_vertices) {
+    const auto [d, w] = pq.top();
+    pq.pop();
+    if (wdone_[static_cast<size_t>(w)] == epoch_ || d > dist(w)) continue;
+    wdone_[static_cast<size_t>(w)] = epoch_;
+    if (d > radius) break;
+    bool pinned = false;
+    faces_of_wedge(w, mv.big, [&](int f, int) {
+      if (rest_w_[static_cast<size_t>(f)] == 0) pinned = true;
+    });
+    if (pinned) continue;
+    mv.free_w.push_back(w);
+    faces_of_wedge(w, mv.big, [&](int f, int k) {
+      for (int j = 1; j < 3; ++j) {
+        const int u = wedge(f, (k + j) % 3);
+        const double nd = d + (uv(u) - uv(w)).norm();
+        if (nd < dist(u)) {
+          dist(u) = nd;
+          pq.emplace(nd, u);
+        }
+      }
+    });
+  }
+}
+
+void Engine::solve(Move& mv) {
+  LocalProblem lp;
+  std::unordered_map<int, int> local;
+  for (int w : mv.free_w) {
+    local[w] = static_cast<int>(lp.x.size());
+    lp.x.push_back(uv(w));
+  }
+  lp.num_free = static_cast<int>(lp.x.size());
+  for (int w : mv.free_w)
+    faces_of_wedge(w, mv.big, [&](int f, int) {
+      if (fchanged_[static_cast<size_t>(f)] == epoch_) return;
+      fchanged_[static_cast<size_t>(f)] = epoch_;
+      mv.prob_faces.push_back(f);
+    });
+  for (int f : mv.prob_faces)
+    for (int k = 0; k < 3; ++k)
+      if (!local.count(wedge(f, k))) {
+        local[wedge(f, k)] = static_cast<int>(lp.x.size());
+        lp.x.push_back(uv(wedge(f, k)));
+      }
+  if (lp.num_free > 0 && static_cast<int>(lp.x.size()) == lp.num_free) {
+    // The whole chart is free: pin the farthest free wedge so rigid motions are fixed.
+    --lp.num_free;
+  }
+  for (int f : mv.prob_faces) {
+    lp.tri.push_back({local[wedge(f, 0)], local[wedge(f, 1)], local[wedge(f, 2)]});
+    lp.rest_inv.push_back(rest_inv_[static_cast<size_t>(f)]);
+    lp.weight.push_back(rest_w_[static_cast<size_t>(f)]);
+  }
+  free_total_ += lp.num_free;
+  ++free_count_;
+  const auto t0 = Clock::now();
+  mv.solved = solver_.solve(lp).ok;
+  rep_.optimisation_seconds += seconds_since(t0);
+  for (int i = 0; i < lp.num_free; ++i) {
+    const int w = mv.free_w[static_cast<size_t>(i)];
+    save_uv(w);
+    wmoved_[static_cast<size_t>(w)] = epoch_;
+    uv(w) = lp.x[static_cast<size_t>(i)];
+  }
+  // Faces whose shape changed (beyond the rigid motion): those around moved seam/free wedges.
+  mv.changed = mv.prob_faces;
+  for (int r : mv.reps)
+    faces_of_wedge(r, mv.big, [&](int f, int) {
+      if (fchanged_[static_cast<size_t>(f)] == epoch_) return;
+      fchanged_[static_cast<size_t>(f)] = epoch_;
+      mv.changed.push_back(f);
+    });
+}
+
+const char* Engine::check(Move& mv) {
+  if (!mv.solved) return "flip";
+  if (const char* why = check_shapes(mv)) return why;
+  if (const char* why = check_folds(mv)) return why;
+  if (const char* why = check_distortion(mv)) return why;
+  if (const char* why = check_fans(mv)) return why;
+  if (const char* why = check_boundary(mv)) return why;
+  return check_triangles(mv);
+}
+
+const char* Engine::check_shapes(const Move& mv) {
+  // Flips first (any flipped face makes the reason "flip"), then near-collapsed faces.
+  bool collapsed = false;
+  for (int f : mv.changed) {
+    if (rest_w_[static_cast<size_t>(f)] == 0) continue;
+    const Mat2 J = jacobian(f);
+    if (J.determinant() <= 0) return "flip";
+    if (opt_.min_singular_value > 0 && !collapsed)
+      collapsed = signed_singular_values_2x2(J)[1] < opt_.min_singular_value;
+  }
+  return collapsed ? "collapse" : nullptr;
+}
+
+const char* Engine::check_folds(const Move& mv) const {
+  for (int ei : mv.seam_edges)
+    if (seam_edge_folded(ei)) return "fold";
+  return nullptr;
+}
+
+const char* Engine::check_distortion(Move& mv) {
+  mv.new_err.assign(mv.changed.size(), 0);
+  double delta = 0, lsum = 0, lw = 0;
+  for (size_t i = 0; i < mv.changed.size(); ++i) {
+    const int f = mv.changed[i];
+    mv.new_err[i] = weighted_err(f);
+    delta += mv.new_err[i] - err_w_[static_cast<size_t>(f)];
+    lsum += mv.new_err[i];
+    lw += rest_w_[static_cast<size_t>(f)];
+  }
+  if (lw > 0 && lsum / lw > opt_.local_bound) return "local_distortion";
+  mv.new_sum = err_sum_ + delta;
+  if (weight_sum_ > 0 && mv.new_sum / weight_sum_ > opt_.global_bound) return "global_distortion";
+  return nullptr;
+}
+
+const char* Engine::check_fans(const Move& mv) {
+  // The triangles around a wedge must not wrap over each other. Boundary segments that share a
+  // wedge are never tested for crossing, so a boundary wedge whose incident angles add up to 2 pi
+  // or more (the merge nearly closed a fan whose input angles exceed 2 pi) overlaps without any
+  // crossing; an interior wedge must have exactly 2 pi (more: a pinch of two fans, or a multiple cover).
+  for (int f : mv.changed)
+    for (int k = 0; k < 3; ++k) {
+      const int w = wedge(f, k);
+      if (wfan_[static_cast<size_t>(w)] == epoch_) continue;
+      wfan_[static_cast<size_t>(w)] = epoch_;
+      if (fan_overlaps(w, mv.big)) return "fan_overlap";
+    }
+  return nullptr;
+}
+
+const char* Engine::check_boundary(Move& mv) {
+  // Self-overlap of the merged chart: its moved boundary segments against its other boundary
+  // segments. Only edges with a welded (representative) wedge can stop being boundary edges; only
+  // edges of the smaller chart and of the changed faces can have moved. The other segments come from
+  // the bigger chart's segment grid, queried with the moved segments' boxes, so the test costs
+  // O(moved segments + segments near them), not O(boundary).
+  const ChartInfo& Bg = C(mv.big);
+  const ChartInfo& Sm = C(mv.small);
+  auto consider = [&](int f) {
+    for (int k = 0; k < 3; ++k) {
+      const int e = 3 * f + k;
+      if (!ebnd_[static_cast<size_t>(e)] || emoved_[static_cast<size_t>(e)] == epoch_ ||
+          edead_[static_cast<size_t>(e)] == epoch_)
+        continue;
+      const int w0 = wedge(f, k), w1 = wedge(f, (k + 1) % 3);
+      if ((wrep_[static_cast<size_t>(w0)] == epoch_ || wrep_[static_cast<size_t>(w1)] == epoch_) &&
+          !is_boundary(f, k, mv.big)) {
+        edead_[static_cast<size_t>(e)] = epoch_;
+        mv.dead.push_back(e);
+        continue;
+      }
+      if (wmoved_[static_cast<size_t>(w0)] == epoch_ || wmoved_[static_cast<size_t>(w1)] == epoch_) {
+        emoved_[static_cast<size_t>(e)] = epoch_;
+        mv.moved_ids.push_back(e);
+      }
+    }
+  };
+  for (const auto& fk : Sm.boundary)
+    if (ebnd_[3 * static_cast<size_t>(fk.first) + static_cast<size_t>(fk.second)]) consider(fk.first);
+  for (int f : mv.changed) consider(f);
+  for (int r : mv.reps) faces_of_wedge(r, mv.big, [&](int f, int) { consider(f); });
+  std::vector<Segment> all, moved;
+  auto segment = [&](int e) {
+    Segment sg;
+    sg.w0 = wedge(e / 3, e % 3);
+    sg.w1 = wedge(e / 3, (e % 3 + 1) % 3);
+    sg.a = uv(sg.w0);
+    sg.b = uv(sg.w1);
+    return sg;
+  };
+  moved.reserve(mv.moved_ids.size());
+  for (int e : mv.moved_ids) moved.push_back(segment(e));
+  ++seen_stamp_;
+  auto visit = [&](int e) {
+    if (eseen_[static_cast<size_t>(e)] == seen_stamp_) return;
+    eseen_[static_cast<size_t>(e)] = seen_stamp_;
+    if (!ebnd_[static_cast<size_t>(e)] || emoved_[static_cast<size_t>(e)] == epoch_ ||
+        edead_[static_cast<size_t>(e)] == epoch_)
+      return;
+    all.push_back(segment(e));
+  };
+  // The smaller chart's unmoved segments (none after a rigid alignment, kept for safety).
+  for (const auto& [f, k] : Sm.boundary) visit(3 * f + k);
+  if (!moved.empty()) {
+    std::vector<std::array<int, 4>> qr;
+    qr.reserve(moved.size());
+    double ncells = 0;
+    for (const Segment& sg : moved) {
+      qr.push_back(query_cells(sg.a.cwiseMin(sg.b), sg.a.cwiseMax(sg.b), (sg.b - sg.a).norm()));
+      ncells += CellGrid::cell_count(qr.back());
+    }
+    if (ncells > static_cast<double>(Bg.boundary.size())) {
+      for (const auto& [f, k] : Bg.boundary) visit(3 * f + k);
+    } else {
+      Bg.segs.query(qr, visit);
+    }
+  }
+  return any_crossing(moved, all) ? "overlap" : nullptr;
+}
+
+const char* Engine::check_triangles(const Move& mv) {
+  // Every moved or changed triangle against every other triangle of the merged chart. The boundary
+  // and fan tests miss overlaps that neither cross a boundary nor wrap a fan seen by this merge:
+  // another sheet of a multi-sheeted input chart, or a chart whose fan the earlier merges closed
+  // around a wedge with input angles far above 2 pi (t078_L15: a 1-face chart welded onto a 4 pi
+  // double cover). Pairs of unchanged triangles keep their relative positions (the bigger chart's
+  // stay put, the smaller chart's move rigidly together), so testing every pair with a moved
+  // triangle means no merge adds an overlapping pair.
+  // note: conservative: an input overlap among the moved triangles also rejects the merge.
+  const ChartInfo& Bg = C(mv.big);
+  std::vector<Tri2> mt, rest;
+  Vec2 lo(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()), hi = -lo;
+  auto grow = [&](const Tri2& t) {
+    for (const Vec2& q : t.p) {
+      lo = lo.cwiseMin(q);
+      hi = hi.cwiseMax(q);
+    }
+  };
+  for (int f : C(mv.small).faces)
+    if (rest_w_[static_cast<size_t>(f)] > 0) {
+      mt.push_back(tri2(f));
+      grow(mt.back());
+    }
+  // The bigger chart's changed faces (every face with fchanged_ == epoch_ is in `changed`).
+  for (int f : mv.changed)
+    if (rest_w_[static_cast<size_t>(f)] > 0 && fowner_[static_cast<size_t>(f)] == mv.big) {
+      mt.push_back(tri2(f));
+      grow(mt.back());
+    }
+  // Only the bigger chart's unchanged triangles whose box meets the moved triangles' box can overlap
+  // them. Candidates come from its triangle grid, queried with each moved triangle's box widened by
+  // more than triangles_overlap's touching tolerance (1e-7 x the longest edge of the pair; grid
+  // triangles span at most kMaxTriCells cells); when the query would visit more cells than the chart
+  // has faces, scan the faces instead.
+  auto keep = [&](int f) {
+    if (fchanged_[static_cast<size_t>(f)] == epoch_ || rest_w_[static_cast<size_t>(f)] == 0) return;
+    const Vec2& a = uv(wedge(f, 0));
+    const Vec2& b = uv(wedge(f, 1));
+    const Vec2& c = uv(wedge(f, 2));
+    if (std::max({a.x(), b.x(), c.x()}) < lo.x() || std::min({a.x(), b.x(), c.x()}) > hi.x() ||
+        std::max({a.y(), b.y(), c.y()}) < lo.y() || std::min({a.y(), b.y(), c.y()}) > hi.y())
+      return;
+    rest.push_back(tri2(f));
+  };
+  std::vector<std::array<int, 4>> qr;
+  qr.reserve(mt.size());
+  double ncells = 0;
+  for (const Tri2& t : mt) {
+    Vec2 a = t.p[0], b = t.p[0];
+    double l = 0;
+    for (int k = 0; k < 3; ++k) {
+      a = a.cwiseMin(t.p[static_cast<size_t>(k)]);
+      b = b.cwiseMax(t.p[static_cast<size_t>(k)]);
+      l = std::max(l, (t.p[static_cast<size_t>(k)] - t.p[static_cast<size_t>((k + 1) % 3)]).norm());
+    }
+    qr.push_back(query_cells(a, b, l));
+    ncells += CellGrid::cell_count(qr.back());
+  }
+  if (ncells > static_cast<double>(Bg.faces.size())) {
+    for (int f : Bg.faces) keep(f);
+  } else {
+    ++seen_stamp_;
+    auto visit = [&](int f) {
+      if (fseen_[static_cast<size_t>(f)] == seen_stamp_) return;
+      fseen_[static_cast<size_t>(f)] = seen_stamp_;
+      keep(f);
+    };
+    Bg.tris.query(qr, visit);
+  }
+  return any_triangle_overlap(mt, rest) ? "overlap" : nullptr;
+}
+
+void Engine::commit(Move& mv) {
+  for (size_t i = 0; i < mv.changed.size(); ++i) err_w_[static_cast<size_t>(mv.changed[i])] = mv.new_err[i];
+  err_sum_ = mv.new_sum;
+  commit_grids(mv);
+  commit_boundary(mv);
+  commit_chart(mv);
+}
+
+void Engine::commit_grids(const Move& mv) {
+  ChartInfo& Sm = C(mv.small);
+  for (int f : mv.changed)
+    if (fowner_[static_cast<size_t>(f)] == mv.big) grid_remove(f);
+  for (int f : Sm.faces) fowner_[static_cast<size_t>(f)] = -1;
+  Sm.tris.clear();
+  for (int f : Sm.faces)
+    if (rest_w_[static_cast<size_t>(f)] > 0) grid_insert(mv.big, f);
+  for (int f : mv.changed)
+    if (rest_w_[static_cast<size_t>(f)] > 0 && fowner_[static_cast<size_t>(f)] != mv.big) grid_insert(mv.big, f);
+}
+
+void Engine::commit_boundary(const Move& mv) {
+  // The weld's interior edges die; moved segments are re-gridded; the smaller chart's live edges are
+  // appended in their order.
+  ChartInfo& Bg = C(mv.big);
+  ChartInfo& Sm = C(mv.small);
+  for (int e : mv.dead) {
+    if (eowner_[static_cast<size_t>(e)] == mv.big) ++Bg.boundary_dead;  // a tombstone in Bg.boundary
+    ebnd_[static_cast<size_t>(e)] = 0;
+    seg_remove(e);
+  }
+  for (int e : mv.moved_ids) {
+    seg_remove(e);
+    seg_insert(mv.big, e);
+  }
+  for (const auto& [f, k] : Sm.boundary) {
+    const int e = 3 * f + k;
+    if (!ebnd_[static_cast<size_t>(e)]) continue;
+    if (eowner_[static_cast<size_t>(e)] != mv.big) {
+      seg_remove(e);
+      seg_insert(mv.big, e);
+    }
+    Bg.boundary.emplace_back(f, k);
+  }
+  Sm.boundary.clear();
+  Sm.boundary_dead = 0;
+  Sm.segs.clear();
+  compact_boundary(Bg);
+  if (opt_.priority == Priority::MMethod) {  // the border length is used by its cost only
+    Bg.border = 0;
+    for (const auto& [f, k] : Bg.boundary)
+      if (ebnd_[3 * static_cast<size_t>(f) + static_cast<size_t>(k)]) Bg.border += edge_uv_len(f, k);
+  }
+}
+
+void Engine::commit_chart(const Move& mv) {
+  ChartInfo& Bg = C(mv.big);
+  ChartInfo& Sm = C(mv.small);
+  Bg.faces.insert(Bg.faces.end(), Sm.faces.begin(), Sm.faces.end());
+  Sm.faces.clear();
+  Sm.faces.shrink_to_fit();
+  Bg.mom.add(Sm.mom);
+  Bg.self_overlap = Bg.self_overlap || Sm.self_overlap;
+  Bg.uv_area += Sm.uv_area;
+  for (const auto& [pg, ar] : Sm.page_area) Bg.page_area[pg] += ar;
+  Sm.page_area.clear();
+  if (Bg.page != Sm.page) {
+    // The chart's page = the page with the most input UV area (ties: the lower page id).
+    double best = -1;
+    for (const auto& [pg, ar] : Bg.page_area)
+      if (ar > best) {
+        best = ar;
+        Bg.page = pg;
+      }
+    at_.chart_page[static_cast<size_t>(mv.big)] = Bg.page;
+  }
+  Sm.alive = false;
+  ++Sm.version;
+  ++Bg.version;
+  Bg.adj.erase(mv.small);
+  for (auto& [c, edges] : Sm.adj) {
+    if (c == mv.big) continue;
+    auto& to = Bg.adj[c];
+    to.insert(to.end(), edges.begin(), edges.end());
+    auto& back = C(c).adj;
+    auto& tb = back[mv.big];
+    tb.insert(tb.end(), edges.begin(), edges.end());
+    back.erase(mv.small);
+  }
+  Sm.adj.clear();
+  refresh_planarity(mv.big);
+}
+
+void Engine::rollback() {
+  for (auto it = saved_uv_.rbegin(); it != saved_uv_.rend(); ++it) uv(it->first) = it->second;
+  for (auto it = saved_fw_.rbegin(); it != saved_fw_.rend(); ++it)
+    at_.face_wedge[static_cast<size_t>(it->first)] = it->second;
+  for (int f : C(saved_small_).faces) at_.face_chart[static_cast<size_t>(f)] = saved_small_;
+}
+
+}  // namespace texdefrag::merge::detail

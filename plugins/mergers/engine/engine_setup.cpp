@@ -1,0 +1,534 @@
+// The merge engine's set-up, queue and passes (docs/mergers.md steps 1-2, 8-9). One move is in
+// engine_move.cpp.
+#include "engine_internal.h"
+
+#include "texdefrag/core/distortion.h"
+
+#include <numeric>
+
+namespace texdefrag::merge::detail {
+
+void CellGrid::insert(int id, std::array<int, 4>& r) {
+  if (static_cast<long long>(r[2] - r[0] + 1) * (r[3] - r[1] + 1) > kMaxTriCells) {
+    r = {1, 1, 0, 0};
+    big.push_back(id);
+    return;
+  }
+  for (int y = r[1]; y <= r[3]; ++y)
+    for (int x = r[0]; x <= r[2]; ++x) cells[key(x, y)].push_back(id);
+}
+
+void CellGrid::remove(int id, const std::array<int, 4>& r) {
+  auto drop = [id](std::vector<int>& v) {
+    auto it = std::find(v.begin(), v.end(), id);
+    if (it != v.end()) {
+      *it = v.back();
+      v.pop_back();
+    }
+  };
+  if (r[0] > r[2]) drop(big);
+  for (int y = r[1]; y <= r[3]; ++y)
+    for (int x = r[0]; x <= r[2]; ++x) {
+      auto it = cells.find(key(x, y));
+      if (it == cells.end()) continue;
+      drop(it->second);
+      if (it->second.empty()) cells.erase(it);
+    }
+}
+
+namespace {
+const char* kRefusal[] = {"", "seam_too_short", "alignment_error"};
+}  // namespace
+
+void Engine::setup() {
+  const size_t nf = mesh_.faces.size();
+  if (at_.face_chart.size() != nf || at_.face_wedge.size() != nf)
+    throw std::invalid_argument("merge engine: atlas does not match the mesh");
+  if (!region_.empty() && region_.size() != nf)
+    throw std::invalid_argument("merge engine: face_region has " + std::to_string(region_.size()) +
+                                " entries for " + std::to_string(nf) + " faces");
+  setup_rest_shapes();
+  setup_charts();
+  setup_seams_and_grids();
+}
+
+void Engine::setup_rest_shapes() {
+  const size_t nf = mesh_.faces.size();
+  // Vertex -> faces.
+  vf_off_.assign(topo_.num_vertices() + 1, 0);
+  for (size_t f = 0; f < nf; ++f)
+    if (at_.face_chart[f] >= 0)
+      for (int v : topo_.face_vertex[f]) ++vf_off_[static_cast<size_t>(v) + 1];
+  std::partial_sum(vf_off_.begin(), vf_off_.end(), vf_off_.begin());
+  vf_.assign(static_cast<size_t>(vf_off_.back()), 0);
+  std::vector<int> fill(vf_off_.begin(), vf_off_.end() - 1);
+  for (size_t f = 0; f < nf; ++f)
+    if (at_.face_chart[f] >= 0)
+      for (int v : topo_.face_vertex[f]) {
+        // note: a degenerate face lists a vertex twice; keep one entry.
+        const size_t s = static_cast<size_t>(vf_off_[static_cast<size_t>(v)]);
+        const size_t e = static_cast<size_t>(fill[static_cast<size_t>(v)]);
+        if (e > s && vf_[e - 1] == static_cast<int>(f)) continue;
+        vf_[e] = static_cast<int>(f);
+        ++fill[static_cast<size_t>(v)];
+      }
+  // Rest shapes.
+  rest_inv_.assign(nf, Mat2::Identity());
+  rest_w_.assign(nf, 0);
+  err_w_.assign(nf, 0);
+  for (size_t f = 0; f < nf; ++f) {
+    if (at_.face_chart[f] < 0) continue;
+    Mat2 Dm;
+    Dm.col(0) = mesh_.corner_texel(f, 1) - mesh_.corner_texel(f, 0);
+    Dm.col(1) = mesh_.corner_texel(f, 2) - mesh_.corner_texel(f, 0);
+    const double det = Dm.determinant();
+    if (det == 0 || !std::isfinite(det) || topo_.face_degenerate[f]) continue;
+    rest_inv_[f] = Dm.inverse();
+    rest_w_[f] = 0.5 * std::abs(det);
+    weight_sum_ += rest_w_[f];
+  }
+  for (size_t f = 0; f < nf; ++f) {
+    if (rest_w_[f] == 0) continue;
+    err_w_[f] = weighted_err(static_cast<int>(f));
+    err_sum_ += err_w_[f];
+  }
+  rep_.distortion_in = weight_sum_ > 0 ? err_sum_ / weight_sum_ : 0;
+}
+
+void Engine::setup_charts() {
+  const size_t nf = mesh_.faces.size();
+  const int nc = at_.num_charts;
+  rep_.charts_in = static_cast<size_t>(nc);
+  charts_.assign(static_cast<size_t>(nc), {});
+  Vec3 origin = Vec3::Zero();
+  if (!mesh_.positions.empty()) {
+    for (const Vec3& p : mesh_.positions) origin += p;
+    origin /= static_cast<double>(mesh_.positions.size());
+  }
+  int nregions = 1;
+  for (int r : region_) nregions = std::max(nregions, r + 1);
+  std::vector<detectors::PlaneMoments> rmom(static_cast<size_t>(nregions));
+  ebnd_.assign(3 * nf, 0);
+  std::vector<std::map<int, int>> votes(static_cast<size_t>(nc));
+  for (size_t f = 0; f < nf; ++f) {
+    const int c = at_.face_chart[f];
+    if (c < 0) continue;
+    ChartInfo& ch = C(c);
+    ch.page = at_.chart_page[static_cast<size_t>(c)];
+    ch.faces.push_back(static_cast<int>(f));
+    ch.uv_area += rest_w_[f];
+    ch.page_area[mesh_.faces[f].page] += rest_w_[f];
+    if (topo_.face_degenerate[f]) ch.locked = true;
+    detectors::PlaneMoments m;
+    m.add_triangle(mesh_.corner_position(f, 0) - origin, mesh_.corner_position(f, 1) - origin,
+                   mesh_.corner_position(f, 2) - origin);
+    ch.mom.add(m);
+    const int r = region_.empty() ? 0 : region_[f];
+    if (r >= 0) {
+      ++votes[static_cast<size_t>(c)][r];
+      rmom[static_cast<size_t>(r)].add(m);
+    }
+    for (int k = 0; k < 3; ++k)
+      if (is_boundary(static_cast<int>(f), k, c)) {
+        ch.boundary.emplace_back(static_cast<int>(f), k);
+        ch.border += edge_uv_len(static_cast<int>(f), k);
+        ebnd_[3 * f + static_cast<size_t>(k)] = 1;
+      }
+  }
+  region_normal_.assign(static_cast<size_t>(nregions), Vec3::Zero());
+  for (size_t r = 0; r < rmom.size(); ++r) region_normal_[r] = detectors::fit_plane(rmom[r]).normal;
+  for (int c = 0; c < nc; ++c) {
+    ChartInfo& ch = C(c);
+    int best = -1, bestn = 0;
+    for (const auto& [r, n] : votes[static_cast<size_t>(c)])
+      if (n > bestn) {
+        best = r;
+        bestn = n;
+      }
+    ch.region = best;
+    if (ch.locked) ++rep_.locked_charts;
+    refresh_planarity(c);
+  }
+  // Input charts whose triangles already overlap (photogrammetry charts can be multi-sheeted): the
+  // boundary-crossing test does not see a merge that lands on another sheet, so merges touching
+  // them also test triangles (see try_merge).
+  for (int c = 0; c < nc; ++c) {
+    ChartInfo& ch = C(c);
+    if (ch.faces.size() < 2) continue;
+    std::vector<Tri2> tris;
+    tris.reserve(ch.faces.size());
+    for (int f : ch.faces)
+      if (rest_w_[static_cast<size_t>(f)] > 0) tris.push_back(tri2(f));
+    ch.self_overlap = any_triangle_overlap(tris, {});
+    if (ch.self_overlap) ++rep_.self_overlapping_charts;
+  }
+}
+
+void Engine::setup_seams_and_grids() {
+  const size_t nf = mesh_.faces.size();
+  // Seam edges: manifold, two textured non-degenerate faces in different charts.
+  for (size_t ei = 0; ei < topo_.edges.size(); ++ei) {
+    const Edge& e = topo_.edges[ei];
+    if (e.num_faces != 2 || e.a == e.b) continue;
+    const EdgeIncidence& x = topo_.edge_faces[static_cast<size_t>(e.first_incidence)];
+    const EdgeIncidence& y = topo_.edge_faces[static_cast<size_t>(e.first_incidence + 1)];
+    const int ca = chart(x.face), cb = chart(y.face);
+    if (ca < 0 || cb < 0 || ca == cb) continue;
+    if (topo_.face_degenerate[static_cast<size_t>(x.face)] || topo_.face_degenerate[static_cast<size_t>(y.face)])
+      continue;
+    C(ca).adj[cb].push_back(static_cast<int>(ei));
+    C(cb).adj[ca].push_back(static_cast<int>(ei));
+  }
+  wstamp_.assign(at_.wedge_uv.size(), 0);
+  wmoved_.assign(at_.wedge_uv.size(), 0);
+  wdist_.assign(at_.wedge_uv.size(), 0);
+  wvisit_.assign(at_.wedge_uv.size(), 0);
+  wfan_.assign(at_.wedge_uv.size(), 0);
+  wrep_.assign(at_.wedge_uv.size(), 0);
+  wdone_.assign(at_.wedge_uv.size(), 0);
+  fstamp_.assign(nf, 0);
+  fchanged_.assign(nf, 0);
+  // Triangle grids: cell = twice the mean longest UV edge of the textured faces.
+  fowner_.assign(nf, -1);
+  fcells_.assign(nf, {1, 1, 0, 0});
+  fseen_.assign(nf, 0);
+  {
+    double sum = 0;
+    size_t n = 0;
+    for (size_t f = 0; f < nf; ++f) {
+      if (rest_w_[f] == 0) continue;
+      Vec2 lo, hi;
+      tri_box(static_cast<int>(f), lo, hi);
+      const double e = (hi - lo).maxCoeff();
+      if (std::isfinite(e)) {
+        sum += e;
+        ++n;
+      }
+    }
+    tri_cell_ = n > 0 && sum > 0 ? 2 * sum / static_cast<double>(n) : 1;
+  }
+  for (size_t f = 0; f < nf; ++f)
+    if (rest_w_[f] > 0 && at_.face_chart[f] >= 0) grid_insert(at_.face_chart[f], static_cast<int>(f));
+  eowner_.assign(3 * nf, -1);
+  ecells_.assign(3 * nf, {1, 1, 0, 0});
+  edead_.assign(3 * nf, 0);
+  emoved_.assign(3 * nf, 0);
+  eseen_.assign(3 * nf, 0);
+  for (int c = 0; c < at_.num_charts; ++c)
+    for (const auto& [f, k] : C(c).boundary) seg_insert(c, 3 * f + k);
+}
+
+Mat2 Engine::jacobian(int f) const {
+  Mat2 B;
+  const Vec2& a = at_.wedge_uv[static_cast<size_t>(wedge(f, 0))];
+  B.col(0) = at_.wedge_uv[static_cast<size_t>(wedge(f, 1))] - a;
+  B.col(1) = at_.wedge_uv[static_cast<size_t>(wedge(f, 2))] - a;
+  return B * rest_inv_[static_cast<size_t>(f)];
+}
+
+double Engine::weighted_err(int f) const {
+  const double w = rest_w_[static_cast<size_t>(f)];
+  return w == 0 ? 0.0 : w * arap_error_2x2(jacobian(f));
+}
+
+bool Engine::is_boundary(int f, int k, int c) const {
+  const Edge& e = topo_.edges[static_cast<size_t>(topo_.face_edge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
+  const int w0 = wedge(f, k), w1 = wedge(f, (k + 1) % 3);
+  for (int i = 0; i < e.num_faces; ++i) {
+    const EdgeIncidence& in = topo_.edge_faces[static_cast<size_t>(e.first_incidence + i)];
+    if (in.face == f || chart(in.face) != c) continue;
+    const int g0 = wedge(in.face, in.local), g1 = wedge(in.face, (in.local + 1) % 3);
+    if ((w0 == g0 && w1 == g1) || (w0 == g1 && w1 == g0)) return false;
+  }
+  return true;
+}
+
+bool Engine::fan_overlaps(int w, int c) const {
+  double sum = 0;
+  bool boundary = false;
+  faces_of_wedge(w, c, [&](int f, int k) {
+    const Vec2& p = at_.wedge_uv[static_cast<size_t>(wedge(f, k))];
+    const Vec2 a = at_.wedge_uv[static_cast<size_t>(wedge(f, (k + 1) % 3))] - p;
+    const Vec2 b = at_.wedge_uv[static_cast<size_t>(wedge(f, (k + 2) % 3))] - p;
+    sum += std::abs(std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b)));
+    if (!boundary && (is_boundary(f, k, c) || is_boundary(f, (k + 2) % 3, c))) boundary = true;
+  });
+  constexpr double kTwoPi = 6.283185307179586;
+  return boundary ? sum >= kTwoPi * (1 - 1e-9) : sum > kTwoPi * (1 + 1e-9);
+}
+
+double Engine::edge_uv_len(int f, int k) const {
+  return (at_.wedge_uv[static_cast<size_t>(wedge(f, k))] - at_.wedge_uv[static_cast<size_t>(wedge(f, (k + 1) % 3))]).norm();
+}
+
+void Engine::refresh_planarity(int c) {
+  // One planarity module for detectors and mergers (detectors/common/planarity.h): normals oriented
+  // by the faces' 3D winding, theta in [0, pi], the normal term 0 past 90 degrees.
+  ChartInfo& ch = C(c);
+  const detectors::PlaneFit fit = detectors::fit_plane(ch.mom);
+  const Vec3 rn = ch.region >= 0 ? region_normal_[static_cast<size_t>(ch.region)] : Vec3::Zero();
+  ch.planarity = fit.valid ? detectors::planarity_index(fit, detectors::normal_angle(fit.normal, rn), opt_.weights) : 0.0;
+}
+
+bool Engine::candidate(int a, int b) const {
+  const ChartInfo& A = charts_[static_cast<size_t>(a)];
+  const ChartInfo& B = charts_[static_cast<size_t>(b)];
+  return a != b && A.alive && B.alive && !A.locked && !B.locked && (opt_.cross_page || A.page == B.page) &&
+         (across_ || (A.region >= 0 && A.region == B.region));
+}
+
+void Engine::pair_points(int big, int small, std::vector<std::pair<int, int>>& pairs) {
+  pairs.clear();
+  for (int ei : C(big).adj[small]) {
+    const Edge& e = topo_.edges[static_cast<size_t>(ei)];
+    EdgeIncidence x = topo_.edge_faces[static_cast<size_t>(e.first_incidence)];
+    EdgeIncidence y = topo_.edge_faces[static_cast<size_t>(e.first_incidence + 1)];
+    if (chart(x.face) != big) std::swap(x, y);
+    for (int v : {e.a, e.b}) {
+      const int kf = corner_of(x.face, v), kg = corner_of(y.face, v);
+      pairs.emplace_back(wedge(x.face, kf), wedge(y.face, kg));
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+}
+
+bool Engine::island_lookahead(int a, int b, int max_steps) const {
+  const ChartInfo& A = charts_[static_cast<size_t>(a)];
+  const ChartInfo& B = charts_[static_cast<size_t>(b)];
+  if (A.adj.size() > static_cast<size_t>(max_steps) || B.adj.size() > static_cast<size_t>(max_steps)) return false;
+  auto sorted_neighbours = [&](int c) {
+    std::vector<int> n;
+    for (const auto& kv : charts_[static_cast<size_t>(c)].adj) n.push_back(kv.first);
+    std::sort(n.begin(), n.end());
+    return n;
+  };
+  std::vector<int> nab = sorted_neighbours(a);
+  for (int c : sorted_neighbours(b)) nab.push_back(c);
+  std::sort(nab.begin(), nab.end());
+  nab.erase(std::unique(nab.begin(), nab.end()), nab.end());
+  for (int c : nab) {
+    std::vector<int> stack{a}, visited{c, a};
+    int steps = 0;
+    auto seen = [&](int x) { return std::find(visited.begin(), visited.end(), x) != visited.end(); };
+    while (!stack.empty() && steps <= max_steps) {
+      const int sc = stack.back();
+      stack.pop_back();
+      if (!seen(sc)) visited.push_back(sc);
+      for (int ac : sorted_neighbours(sc)) {
+        if (!seen(ac)) {
+          stack.push_back(ac);
+          ++steps;
+        }
+        if (steps > max_steps) break;
+      }
+    }
+    if (stack.empty()) return true;  // the component of a without c has c as its only neighbour
+  }
+  return false;
+}
+
+double Engine::score(int a, int b, int& refusal) {
+  ChartInfo& A = C(a);
+  ChartInfo& B = C(b);
+  refusal = 0;
+  if (opt_.priority == Priority::Planarity)
+    return std::max(A.planarity, B.planarity) * std::max(A.uv_area, B.uv_area);
+  // M-method cost: err * min(B_a/L_a, B_b/L_b) * min(area_a, area_b) * penalty, smaller first.
+  const int big = A.uv_area >= B.uv_area ? a : b, small = big == a ? b : a;
+  std::vector<std::pair<int, int>> pairs;
+  pair_points(big, small, pairs);
+  std::vector<Vec2> p, q;
+  for (const auto& [wb, ws] : pairs) {
+    q.push_back(uv(wb));
+    p.push_back(uv(ws));
+  }
+  const Rigid2 m = fit_rigid(p, q);
+  double err = 0;
+  for (size_t i = 0; i < p.size(); ++i) err += (m(p[i]) - q[i]).norm();
+  err /= static_cast<double>(std::max<size_t>(1, p.size()));
+  double la = 0, lb = 0;
+  size_t nedges = 0;
+  for (int ei : A.adj[b]) {
+    const Edge& ed = topo_.edges[static_cast<size_t>(ei)];
+    for (int i = 0; i < 2; ++i) {
+      const EdgeIncidence& in = topo_.edge_faces[static_cast<size_t>(ed.first_incidence + i)];
+      (chart(in.face) == a ? la : lb) += edge_uv_len(in.face, in.local);
+    }
+    ++nedges;
+  }
+  const double ra = la > 0 ? A.border / la : 1e30, rb = lb > 0 ? B.border / lb : 1e30;
+  const double cost = err * std::min(ra, rb) * std::min(A.uv_area, B.uv_area) * pair_state(a, b).penalty;
+  const double mean_seam = nedges ? 0.5 * (la + lb) / static_cast<double>(nedges) : 0;
+  if (la < 0.2 * A.border && lb < 0.2 * B.border && !(across_ && !opt_.second_pass_seam_refusal) &&
+      !island_lookahead(a, b, kIslandLookaheadSteps))
+    refusal = 1;
+  else if (err > 2 * mean_seam)
+    refusal = 2;
+  return -cost;
+}
+
+void Engine::push_pair(int a, int b) {
+  if (a > b) std::swap(a, b);
+  if (!candidate(a, b)) return;
+  PairState& ps = pair_state(a, b);
+  if (ps.attempts >= opt_.max_attempts) return;
+  if (ps.va == C(a).version && ps.vb == C(b).version) return;  // its newest entry is current
+  Entry e{0, a, b, C(a).version, C(b).version, 0};
+  e.score = score(a, b, e.refusal);
+  ps.va = e.va;
+  ps.vb = e.vb;
+  queue_.push(e);
+}
+
+void Engine::grid_insert(int c, int f) {
+  Vec2 lo, hi;
+  tri_box(f, lo, hi);
+  std::array<int, 4>& r = fcells_[static_cast<size_t>(f)];
+  r = {cell_of(lo.x()), cell_of(lo.y()), cell_of(hi.x()), cell_of(hi.y())};
+  fowner_[static_cast<size_t>(f)] = c;
+  C(c).tris.insert(f, r);
+}
+
+void Engine::seg_insert(int c, int e) {
+  const Vec2& a = uv(wedge(e / 3, e % 3));
+  const Vec2& b = uv(wedge(e / 3, (e % 3 + 1) % 3));
+  std::array<int, 4>& r = ecells_[static_cast<size_t>(e)];
+  r = {cell_of(std::min(a.x(), b.x())), cell_of(std::min(a.y(), b.y())), cell_of(std::max(a.x(), b.x())),
+       cell_of(std::max(a.y(), b.y()))};
+  eowner_[static_cast<size_t>(e)] = c;
+  C(c).segs.insert(e, r);
+}
+
+void Engine::seg_remove(int e) {
+  const int c = eowner_[static_cast<size_t>(e)];
+  if (c < 0) return;
+  C(c).segs.remove(e, ecells_[static_cast<size_t>(e)]);
+  eowner_[static_cast<size_t>(e)] = -1;
+}
+
+void Engine::compact_boundary(ChartInfo& ch) {
+  if (2 * ch.boundary_dead <= ch.boundary.size()) return;
+  size_t n = 0;
+  for (const auto& fk : ch.boundary)
+    if (ebnd_[3 * static_cast<size_t>(fk.first) + static_cast<size_t>(fk.second)]) ch.boundary[n++] = fk;
+  ch.boundary.resize(n);
+  ch.boundary_dead = 0;
+}
+
+void Engine::grid_remove(int f) {
+  const int c = fowner_[static_cast<size_t>(f)];
+  if (c < 0) return;
+  C(c).tris.remove(f, fcells_[static_cast<size_t>(f)]);
+  fowner_[static_cast<size_t>(f)] = -1;
+}
+
+MergeReport Engine::run(const Progress& progress) {
+  setup();
+  for (int c = 0; c < at_.num_charts; ++c)
+    for (const auto& [n, edges] : C(c).adj)
+      if (c < n && candidate(c, n)) {
+        ++rep_.candidates_initial;
+        push_pair(c, n);
+      }
+  refreshed_area_.resize(charts_.size());
+  for (size_t c = 0; c < charts_.size(); ++c) refreshed_area_[c] = charts_[c].uv_area;
+  const bool second = opt_.second_pass == SecondPass::AcrossRegions;
+  drain(progress, 0, second ? 0.6 : 1.0);
+  rep_.charts_after_first_pass = 0;
+  for (const ChartInfo& ch : charts_) rep_.charts_after_first_pass += ch.alive && !ch.faces.empty();
+  rep_.distortion_after_first_pass = weight_sum_ > 0 ? err_sum_ / weight_sum_ : 0;
+  if (second) {
+    const size_t before = rep_.accepted;
+    const int steps = std::max(1, opt_.second_pass_steps);
+    for (int i = 0; i < steps; ++i) {
+      start_second_pass(opt_.second_pass_local_bound / std::pow(2.0, steps - 1 - i));
+      drain(progress, 0.6 + 0.4 * i / steps, 0.4 / steps);
+    }
+    rep_.accepted_second_pass = rep_.accepted - before;
+  }
+  if (progress) progress(1.0);
+  rep_.mean_free_vertices = free_count_ ? free_total_ / static_cast<double>(free_count_) : 0;
+  rep_.charts_out = static_cast<size_t>(at_.compact());
+  const DistortionSummary ds = atlas_distortion(mesh_, at_);
+  rep_.distortion_out = ds.arap;
+  rep_.flipped_out = ds.flipped;
+  return rep_;
+}
+
+void Engine::start_second_pass(double local_bound) {
+  // Regions are ignored from now on; the order and the per-merge bound switch to the second pass's.
+  const bool first_step = !across_;
+  across_ = true;
+  opt_.priority = opt_.second_pass_priority;
+  opt_.local_bound = local_bound;
+  // The M-method's cost needs every chart's current border length (kept only under that order).
+  for (ChartInfo& ch : charts_) {
+    if (!ch.alive) continue;
+    ch.border = 0;
+    for (const auto& [f, k] : ch.boundary)
+      if (ebnd_[3 * static_cast<size_t>(f) + static_cast<size_t>(k)]) ch.border += edge_uv_len(f, k);
+  }
+  // Every adjacent pair is queued again under the new order (pairs that used up max_attempts stay out).
+  for (auto& [key, ps] : pairs_) {
+    ps.va = ps.vb = -1;
+    if (!first_step) ps.attempts = 0;  // a later step has a looser local bound: try again
+  }
+  for (int c = 0; c < static_cast<int>(charts_.size()); ++c) {
+    if (!C(c).alive) continue;
+    std::vector<int> nb;
+    for (const auto& [n, edges] : C(c).adj)
+      if (c < n) nb.push_back(n);
+    for (int n : nb) push_pair(c, n);
+  }
+}
+
+void Engine::drain(const Progress& progress, double base, double span) {
+  size_t popped = 0;
+  while (!queue_.empty() && static_cast<long long>(rep_.accepted) < opt_.max_merges) {
+    const Entry e = queue_.top();
+    queue_.pop();
+    if ((++popped & 255) == 0 && progress)
+      progress(base + span * static_cast<double>(popped) / static_cast<double>(popped + queue_.size()));
+    if (!C(e.a).alive || !C(e.b).alive) continue;
+    if (C(e.a).version != e.va || C(e.b).version != e.vb) {
+      // note: lazy refresh: a stale entry is re-scored and queued again (once per version pair).
+      push_pair(e.a, e.b);
+      continue;
+    }
+    PairState& ps = pair_state(e.a, e.b);
+    if (ps.attempts >= opt_.max_attempts) continue;
+    ++ps.attempts;
+    if (e.refusal) {
+      ++rep_.rejected[kRefusal[e.refusal]];
+      continue;
+    }
+    std::string reason;
+    // note: take the small chart's neighbour list before the merge consumes it.
+    const int big0 = C(e.a).uv_area >= C(e.b).uv_area ? e.a : e.b, small0 = big0 == e.a ? e.b : e.a;
+    std::vector<int> fresh;
+    for (const auto& [n, edges] : C(small0).adj)
+      if (n != big0 && !C(big0).adj.count(n)) fresh.push_back(n);
+    if (try_merge(e.a, e.b, reason)) {
+      ++rep_.accepted;
+      const int big = big0;
+      ChartInfo& B = C(big);
+      // Re-queue every pair of the merged chart when its area grew by a quarter since the last
+      // full refresh (scores move little before that; stale entries are re-scored when popped);
+      // always queue the pairs it inherited from the absorbed chart.
+      if (B.uv_area > 1.25 * refreshed_area_[static_cast<size_t>(big)] || opt_.priority == Priority::MMethod) {
+        refreshed_area_[static_cast<size_t>(big)] = B.uv_area;
+        std::vector<int> nb;
+        for (const auto& [n, edges] : B.adj) nb.push_back(n);
+        for (int n : nb) push_pair(big, n);
+      } else {
+        for (int n : fresh) push_pair(big, n);
+      }
+    } else {
+      ++rep_.rejected[reason];
+      ps.penalty *= 2;  // the M-method's penalty (used by its cost only)
+    }
+  }
+}
+
+}  // namespace texdefrag::merge::detail
