@@ -64,6 +64,9 @@ class Palette {
         c *= 1.0 - 0.12 * std::exp(-p.z());                // splash dirt at the foot
         break;
       }
+      case SemanticClass::Vegetation:
+        c = Vec3(55 + 40 * n2, 85 + 50 * n1, 40) * (0.7 + 0.5 * n1);
+        break;
       case SemanticClass::Detail:
         if (shape_.plane_glass[static_cast<size_t>(plane)])
           c = Vec3(45, 60, 78) * (0.7 + 0.8 * n1);
@@ -91,6 +94,93 @@ int next_pow2(int v) {
   return p;
 }
 
+/// A chart of the generated atlas.
+struct Chart {
+  std::vector<int> verts;  ///< raw vertex ids
+  std::vector<Vec2> uv;    ///< texels, relative to the chart's lower-left corner after packing
+  double w = 0, h = 0;
+  int page = 0;
+  Vec2 at = Vec2::Zero();
+  bool mirrored = false;   ///< mirror_fraction: u -> -u
+  int host = -1;           ///< overlap_fraction: the chart this one is laid over
+  double exposure = 1;     ///< exposure_sd: the chart's own brightness factor
+};
+
+/// Marks charts mirrored, in random order, until `fraction` of the F faces are in mirrored charts
+/// (a chart is taken when that brings the count closer to the target).
+void choose_mirrored(const std::vector<std::vector<int>>& chart_faces, double fraction, size_t F, Rng& rng,
+                     std::vector<Chart>& charts) {
+  if (fraction <= 0) return;
+  std::vector<size_t> order(charts.size());
+  std::iota(order.begin(), order.end(), size_t{0});
+  for (size_t i = order.size(); i > 1; --i) std::swap(order[i - 1], order[static_cast<size_t>(rng.uniform_int(0, static_cast<int>(i) - 1))]);
+  const double target = fraction * static_cast<double>(F);
+  double taken = 0;
+  for (size_t c : order) {
+    const double n = static_cast<double>(chart_faces[c].size());
+    if (taken + 0.5 * n > target) continue;
+    charts[c].mirrored = true;
+    taken += n;
+  }
+}
+
+/// Mirrors (u -> -u), scales by a log-normal density factor and warps a chart's texel
+/// coordinates by a homography t -> c + (t - c) / (1 + g d.(t - c) / e) (d a random unit
+/// direction, e twice the largest |d.(t - c)|: the denominator stays in [1 - g/2, 1 + g/2] > 0,
+/// so no triangle flips; density ratio (1 + g/2) / (1 - g/2) across the chart).
+void distort_chart(std::vector<Vec2>& uv, bool mirrored, const SynthOptions& o, Rng& rng) {
+  if (mirrored)
+    for (Vec2& t : uv) t.x() = -t.x();
+  if (o.density_jitter > 0) {
+    const double k = std::exp(o.density_jitter * rng.normal());
+    for (Vec2& t : uv) t *= k;
+  }
+  if (o.perspective > 0 && !uv.empty()) {
+    const double a = rng.uniform(0, 6.283185307179586);
+    const Vec2 d(std::cos(a), std::sin(a));
+    Vec2 c = Vec2::Zero();
+    for (const Vec2& t : uv) c += t;
+    c /= static_cast<double>(uv.size());
+    double e = 0;
+    for (const Vec2& t : uv) e = std::max(e, std::abs(d.dot(t - c)));
+    if (e <= 0) return;
+    for (Vec2& t : uv) t = c + (t - c) / (1 + o.perspective * d.dot(t - c) / (2 * e));
+  }
+}
+
+/// Picks round(fraction * charts) guests, each laid over a random larger chart (host) that is
+/// not itself a guest; a guest without a host after 32 draws stays where it is.
+void choose_hosts(std::vector<Chart>& charts, double fraction, Rng& rng) {
+  const int C = static_cast<int>(charts.size());
+  const int n = static_cast<int>(std::lround(fraction * C));
+  if (n <= 0 || C < 2) return;
+  std::vector<uint8_t> guest(charts.size(), 0), host(charts.size(), 0);
+  for (int i = 0, tries = 0; i < n && tries < 20 * n; ++tries) {
+    const int g = rng.uniform_int(0, C - 1);
+    if (guest[static_cast<size_t>(g)]) continue;
+    for (int k = 0; k < 32; ++k) {
+      const int h = rng.uniform_int(0, C - 1);
+      const Chart& H = charts[static_cast<size_t>(h)];
+      // a host keeps its place: never also a guest
+      if (h == g || guest[static_cast<size_t>(h)] || host[static_cast<size_t>(g)]) continue;
+      if (H.w < charts[static_cast<size_t>(g)].w || H.h < charts[static_cast<size_t>(g)].h) continue;
+      charts[static_cast<size_t>(g)].host = h;
+      guest[static_cast<size_t>(g)] = 1;
+      host[static_cast<size_t>(h)] = 1;
+      ++i;
+      break;
+    }
+  }
+}
+
+/// Counts clutter faces into the truth.
+void count_features(const RawMesh& raw, const Shape& shape, SynthTruth& t) {
+  (void)raw;
+  t.clutter_faces = 0;
+  for (int p : t.face_plane)
+    if (shape.clutter_planes_from >= 0 && p >= shape.clutter_planes_from) ++t.clutter_faces;
+}
+
 }  // namespace
 
 void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>& views, const SynthOptions& options,
@@ -114,6 +204,13 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
         for (int g : edge_faces[(static_cast<uint64_t>(std::min(a, b)) << 32) | static_cast<uint64_t>(std::max(a, b))])
           if (views[static_cast<size_t>(g)] == views[f]) parent[static_cast<size_t>(find(parent, g))] = find(parent, static_cast<int>(f));
       }
+    // charts across planes: edges between faces of two planes that lie inside one chart
+    model.truth.plane_edges = model.truth.plane_edges_in_chart = 0;
+    for (const auto& [key, fs] : edge_faces)
+      if (fs.size() == 2 && raw.face_plane[static_cast<size_t>(fs[0])] != raw.face_plane[static_cast<size_t>(fs[1])]) {
+        ++model.truth.plane_edges;
+        if (find(parent, fs[0]) == find(parent, fs[1])) ++model.truth.plane_edges_in_chart;
+      }
   }
   std::vector<int> chart_of(F), root_chart(F, -1);
   std::vector<std::vector<int>> chart_faces;
@@ -128,14 +225,9 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
   }
   const size_t C = chart_faces.size();
   // 2. per chart: local vertices and their texel coordinates (y up) in the chart's camera
-  struct Chart {
-    std::vector<int> verts;  ///< raw vertex ids
-    std::vector<Vec2> uv;    ///< texels, relative to the chart's lower-left corner after packing
-    double w = 0, h = 0;
-    int page = 0;
-    Vec2 at = Vec2::Zero();
-  };
   std::vector<Chart> charts(C);
+  Rng hard(options.seed, 0x4A5D);  // the hard features' own stream: default outputs unchanged
+  choose_mirrored(chart_faces, options.mirror_fraction, F, hard, charts);
   std::unordered_map<int, int> local;
   for (size_t c = 0; c < C; ++c) {
     Chart& ch = charts[c];
@@ -144,13 +236,16 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
     for (int f : chart_faces[c])
       for (int v : raw.tris[static_cast<size_t>(f)])
         if (local.emplace(v, static_cast<int>(ch.verts.size())).second) ch.verts.push_back(v);
-    Vec2 lo(1e300, 1e300), hi(-1e300, -1e300);
     for (int v : ch.verts) {
       Vec2 px;
       if (!project(cam, raw.positions[static_cast<size_t>(v)], px))
         throw std::logic_error("synth: chart vertex behind its camera");
-      const Vec2 t(px.x() * cam.texel_scale, -px.y() * cam.texel_scale);
-      ch.uv.push_back(t);
+      ch.uv.emplace_back(px.x() * cam.texel_scale, -px.y() * cam.texel_scale);
+    }
+    distort_chart(ch.uv, ch.mirrored, options, hard);
+    if (options.exposure_sd > 0) ch.exposure = std::clamp(1 + options.exposure_sd * hard.normal(), 0.5, 1.5);
+    Vec2 lo(1e300, 1e300), hi(-1e300, -1e300);
+    for (const Vec2& t : ch.uv) {
       lo = lo.cwiseMin(t);
       hi = hi.cwiseMax(t);
     }
@@ -161,6 +256,7 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
     ch.w = w * s;
     ch.h = h * s;
   }
+  choose_hosts(charts, options.overlap_fraction, hard);
   // 3. shelf packing, tallest first
   std::vector<int> order(C);
   std::iota(order.begin(), order.end(), 0);
@@ -172,6 +268,7 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
   std::vector<Vec2> used(1, Vec2::Zero());
   for (int id : order) {
     Chart& ch = charts[static_cast<size_t>(id)];
+    if (ch.host >= 0) continue;  // laid over its host below
     const int cw = static_cast<int>(std::ceil(ch.w)) + 2 * pad + 1, chh = static_cast<int>(std::ceil(ch.h)) + 2 * pad + 1;
     if (x + cw > P) {
       x = 0;
@@ -190,6 +287,12 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
     used[static_cast<size_t>(page)] = used[static_cast<size_t>(page)].cwiseMax(Vec2(x, y + chh));
   }
   const int num_pages = page + 1;
+  for (Chart& ch : charts) {
+    if (ch.host < 0) continue;
+    const Chart& host = charts[static_cast<size_t>(ch.host)];
+    ch.page = host.page;
+    ch.at = host.at + Vec2(std::floor(hard.uniform(0, host.w - ch.w)), std::floor(hard.uniform(0, host.h - ch.h)));
+  }
   // 4. mesh: pages, materials, faces grouped by page then packing order
   TexturedMesh& mesh = model.mesh;
   mesh = TexturedMesh();
@@ -216,11 +319,16 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
   truth.face_class.clear();
   truth.face_view.clear();
   truth.face_chart.clear();
+  truth.face_mirrored.clear();
+  truth.face_zero_uv.clear();
+  truth.overlapping_charts.clear();
+  std::vector<int> chart_no_of(C, -1);
+  std::vector<double> chart_exposure;
   int chart_no = 0;
   for (int id : page_order) {
     const Chart& ch = charts[static_cast<size_t>(id)];
     const Page& pg = mesh.pages[static_cast<size_t>(ch.page)];
-    const int base = static_cast<int>(mesh.positions.size());
+    const int base = static_cast<int>(mesh.positions.size()), tbase = static_cast<int>(mesh.texcoords.size());
     for (size_t i = 0; i < ch.verts.size(); ++i) {
       mesh.positions.push_back(raw.positions[static_cast<size_t>(ch.verts[i])]);
       const Vec2 t = ch.at + ch.uv[i];
@@ -228,12 +336,23 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
     }
     local.clear();
     for (size_t i = 0; i < ch.verts.size(); ++i) local.emplace(ch.verts[i], static_cast<int>(i));
+    chart_no_of[static_cast<size_t>(id)] = chart_no;
+    chart_exposure.push_back(ch.exposure);
     for (int f : chart_faces[static_cast<size_t>(id)]) {
       Face fc;
       for (int k = 0; k < 3; ++k) {
-        const int li = base + local[raw.tris[static_cast<size_t>(f)][static_cast<size_t>(k)]];
-        fc.v[static_cast<size_t>(k)] = li;
-        fc.vt[static_cast<size_t>(k)] = li;
+        const int li = local[raw.tris[static_cast<size_t>(f)][static_cast<size_t>(k)]];
+        fc.v[static_cast<size_t>(k)] = base + li;
+        fc.vt[static_cast<size_t>(k)] = tbase + li;
+      }
+      // zero UV area: the face gets its own texture coordinates, all at its first corner's UV
+      const bool zero = options.zero_uv_fraction > 0 && hard.chance(options.zero_uv_fraction);
+      if (zero) {
+        const Vec2 t0 = mesh.texcoords[static_cast<size_t>(fc.vt[0])];
+        for (int k = 0; k < 3; ++k) {
+          fc.vt[static_cast<size_t>(k)] = static_cast<int>(mesh.texcoords.size());
+          mesh.texcoords.push_back(t0);
+        }
       }
       fc.material = ch.page;
       fc.page = ch.page;
@@ -244,10 +363,17 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
       truth.face_class.push_back(shape.planes[static_cast<size_t>(pl)].semantic);
       truth.face_view.push_back(views[static_cast<size_t>(f)]);
       truth.face_chart.push_back(chart_no);
+      truth.face_mirrored.push_back(ch.mirrored ? 1 : 0);
+      truth.face_zero_uv.push_back(zero ? 1 : 0);
     }
     ++chart_no;
   }
   truth.num_charts = chart_no;
+  for (size_t c = 0; c < C; ++c)
+    if (charts[c].host >= 0)
+      truth.overlapping_charts.push_back({chart_no_of[c], chart_no_of[static_cast<size_t>(charts[c].host)]});
+  truth.chart_exposure = chart_exposure;
+  count_features(raw, shape, truth);
   // 5. colours
   model.pages.assign(static_cast<size_t>(num_pages), Image());
   for (int k = 0; k < num_pages; ++k) {
@@ -298,7 +424,8 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
                                       (static_cast<uint64_t>(row) << 24) ^ static_cast<uint64_t>(xx));
         const double grain = (static_cast<double>(hsh & 0xFF) / 255.0 - 0.5) * 10.0;
         uint8_t* px = img.at(xx, row);
-        for (int ch = 0; ch < 3; ++ch) px[ch] = to_byte(alb[ch] * cam.exposure * cam.colour_gain[ch] + grain);
+        const double expo = cam.exposure * chart_exposure[static_cast<size_t>(truth.face_chart[f])];
+        for (int ch = 0; ch < 3; ++ch) px[ch] = to_byte(alb[ch] * expo * cam.colour_gain[ch] + grain);
         mask[static_cast<size_t>(row) * static_cast<size_t>(img.width) + static_cast<size_t>(xx)] = 1;
       }
   }

@@ -86,11 +86,16 @@ struct Shape {
   std::vector<PlaneInfo> planes;
   std::vector<uint8_t> plane_glass;  ///< per plane: 1 for window panes (coloured as glass)
   Vec3 bbox_min = Vec3::Zero(), bbox_max = Vec3::Zero();  ///< of the building (ground excluded)
+  int clutter_planes_from = -1;  ///< planes from this index on are trees and clutter (-1: none)
 };
 
 /// Builds the polygons of one building of the given archetype (not Mixed), ground patch included.
 /// scale in [0.8, 2] stretches the footprint (bigger buildings for bigger face counts).
 Shape build_shape(Archetype archetype, Rng& rng, double scale);
+
+/// Adds trees and ground clutter on the ground patch outside the building's bounding box until
+/// they hold `fraction` of the total surface area (clutter.cpp); nothing when fraction <= 0.
+void add_clutter(Shape& shape, double fraction, Rng& rng);
 
 /// Result of meshing a Shape: a welded triangle mesh with per-face truth.
 struct RawMesh {
@@ -112,8 +117,10 @@ std::vector<Camera> make_cameras(const Shape& shape, Rng& rng);
 
 /// Per-face view labels (indices into cameras) by score + noise + majority-vote smoothing.
 /// noise: amplitude of spatially smooth per-camera score noise; noise_iid: of per-face noise.
+/// cross_plane: probability that a face next to another plane takes that neighbour's view (drawn
+/// from cross_rng only when > 0, so other streams are unchanged).
 std::vector<int> select_views(const RawMesh& mesh, const Shape& shape, const std::vector<Camera>& cameras,
-                              double noise, double noise_iid, int passes, Rng& rng);
+                              double noise, double noise_iid, int passes, Rng& rng, double cross_plane, Rng& cross_rng);
 
 /// Projects p into camera c: pixel coordinates (x right, y down); false behind the camera.
 bool project(const Camera& c, const Vec3& p, Vec2& pixel);

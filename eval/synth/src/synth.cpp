@@ -24,7 +24,7 @@ constexpr Archetype kConcrete[] = {Archetype::Residential, Archetype::Factory, A
                                    Archetype::Courtyard};
 
 // Random stream ids of the generation steps.
-enum Stream : uint64_t { kArchetype = 1, kShape, kMesh, kNoise, kCameras, kTexelScale, kViews, kAtlas };
+enum Stream : uint64_t { kArchetype = 1, kShape, kMesh, kNoise, kCameras, kTexelScale, kViews, kAtlas, kClutter, kCrossPlane };
 
 double polygon_area(const detail::Polygon& p) {
   auto ring_area = [&](const std::vector<Vec3>& r) {
@@ -62,6 +62,7 @@ const char* to_string(SemanticClass c) {
     case SemanticClass::Roof: return "roof";
     case SemanticClass::Ground: return "ground";
     case SemanticClass::Detail: return "detail";
+    case SemanticClass::Vegetation: return "vegetation";
   }
   return "?";
 }
@@ -71,6 +72,31 @@ std::optional<Archetype> parse_archetype(const std::string& name) {
                       Archetype::Courtyard, Archetype::Mixed})
     if (name == to_string(a)) return a;
   return std::nullopt;
+}
+
+std::vector<std::string> preset_names() { return {"default", "hard"}; }
+
+bool apply_preset(const std::string& name, SynthOptions& o) {
+  if (name == "default") {
+    o = SynthOptions{};
+    return true;
+  }
+  if (name != "hard") return false;
+  o = SynthOptions{};
+  // note: values from the realism table of docs/synth.md (measured on the six real ContextCapture
+  // tiles and, for the mirrored share, the held-back L19 tile of issue 18: 46% of its faces).
+  o.mirror_fraction = 0.4;
+  o.zero_uv_fraction = 0.01;
+  o.overlap_fraction = 0.005;
+  o.perspective = 0.25;
+  o.density_jitter = 0.1;
+  o.exposure_sd = 0.06;
+  o.clutter_fraction = 0.15;
+  o.cross_plane = 0.3;
+  o.view_noise = 0.6;
+  o.view_noise_iid = 0.15;
+  o.smoothing_passes = 1;
+  return true;
 }
 
 SynthModel generate(const SynthOptions& o) {
@@ -84,13 +110,24 @@ SynthModel generate(const SynthOptions& o) {
   check(o.padding >= 1 && o.padding <= 8, "padding " + std::to_string(o.padding) + " outside [1, 8]");
   check(o.page_size >= 256 && o.page_size <= 8192 && (o.page_size & (o.page_size - 1)) == 0,
         "page_size must be a power of two in [256, 8192]");
+  auto in = [](double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; };
+  check(in(o.mirror_fraction, 0, 1), "mirror_fraction outside [0, 1]");
+  check(in(o.zero_uv_fraction, 0, 0.5), "zero_uv_fraction outside [0, 0.5]");
+  check(in(o.overlap_fraction, 0, 0.5), "overlap_fraction outside [0, 0.5]");
+  check(in(o.perspective, 0, 1.5), "perspective outside [0, 1.5]");
+  check(in(o.density_jitter, 0, 1), "density_jitter outside [0, 1]");
+  check(in(o.exposure_sd, 0, 0.5), "exposure_sd outside [0, 0.5]");
+  check(in(o.clutter_fraction, 0, 0.8), "clutter_fraction outside [0, 0.8]");
+  check(in(o.cross_plane, 0, 1), "cross_plane outside [0, 1]");
 
   Archetype arch = o.archetype;
   if (arch == Archetype::Mixed) arch = kConcrete[Rng(o.seed, kArchetype).uniform_int(0, 4)];
   const double F = static_cast<double>(o.target_faces);
   const double scale = std::clamp(std::pow(F / 20000.0, 0.25), 0.8, 2.0);
   Rng shape_rng(o.seed, kShape);
-  const detail::Shape shape = detail::build_shape(arch, shape_rng, scale);
+  detail::Shape shape = detail::build_shape(arch, shape_rng, scale);
+  Rng clutter_rng(o.seed, kClutter);
+  detail::add_clutter(shape, o.clutter_fraction, clutter_rng);
 
   // edge length: a jittered hexagonal grid of spacing s gives 2 / (s^2 sin 60deg) faces per m^2;
   // then correct by the predicted face count (cheap: no triangulation) twice.
@@ -118,9 +155,9 @@ SynthModel generate(const SynthOptions& o) {
   Rng scale_rng(o.seed, kTexelScale);
   for (Camera& c : model.truth.cameras)
     c.texel_scale = tpm * (c.position - centre).norm() / c.focal_px * scale_rng.uniform(0.8, 1.25);
-  Rng view_rng(o.seed, kViews);
+  Rng view_rng(o.seed, kViews), cross_rng(o.seed, kCrossPlane);
   const std::vector<int> views = detail::select_views(raw, shape, model.truth.cameras, o.view_noise, o.view_noise_iid,
-                                                        o.smoothing_passes, view_rng);
+                                                        o.smoothing_passes, view_rng, o.cross_plane, cross_rng);
   Rng atlas_rng(o.seed, kAtlas);
   detail::build_atlas(raw, shape, views, o, atlas_rng, model);
 
@@ -146,8 +183,11 @@ json truth_json(const SynthModel& m, const SynthOptions& o) {
   j["options"] = {{"archetype", to_string(o.archetype)}, {"target_faces", o.target_faces}, {"seed", o.seed},
                   {"noise_cm", o.noise_cm}, {"holes", o.holes}, {"view_noise", o.view_noise}, {"view_noise_iid", o.view_noise_iid},
                   {"smoothing_passes", o.smoothing_passes}, {"texels_per_edge", o.texels_per_edge},
-                  {"padding", o.padding}, {"page_size", o.page_size}};
-  j["classes"] = {"wall", "roof", "ground", "detail"};
+                  {"padding", o.padding}, {"page_size", o.page_size}, {"mirror_fraction", o.mirror_fraction},
+                  {"zero_uv_fraction", o.zero_uv_fraction}, {"overlap_fraction", o.overlap_fraction},
+                  {"perspective", o.perspective}, {"density_jitter", o.density_jitter}, {"exposure_sd", o.exposure_sd},
+                  {"clutter_fraction", o.clutter_fraction}, {"cross_plane", o.cross_plane}};
+  j["classes"] = {"wall", "roof", "ground", "detail", "vegetation"};
   j["faces"] = m.mesh.faces.size();
   j["pages"] = m.mesh.pages.size();
   j["num_charts"] = t.num_charts;
@@ -160,6 +200,13 @@ json truth_json(const SynthModel& m, const SynthOptions& o) {
   j["face_class"] = cls;
   j["face_view"] = t.face_view;
   j["face_chart"] = t.face_chart;
+  const auto count = [](const std::vector<uint8_t>& v) { return static_cast<size_t>(std::count(v.begin(), v.end(), 1)); };
+  json hard = {{"mirrored_faces", count(t.face_mirrored)}, {"zero_uv_faces", count(t.face_zero_uv)},
+               {"clutter_faces", t.clutter_faces}, {"plane_edges", t.plane_edges},
+               {"plane_edges_in_chart", t.plane_edges_in_chart}, {"overlapping_charts", t.overlapping_charts}};
+  if (!t.face_mirrored.empty()) j["face_mirrored"] = t.face_mirrored;
+  if (!t.face_zero_uv.empty()) j["face_zero_uv"] = t.face_zero_uv;
+  j["features"] = hard;
   json planes = json::array();
   for (const PlaneInfo& p : t.planes)
     planes.push_back({{"class", to_string(p.semantic)}, {"normal", vec_json(p.normal)}, {"offset", p.offset}, {"curved", p.curved}});
@@ -198,7 +245,7 @@ std::vector<SynthOptions> dataset_plan(const DatasetOptions& d) {
   std::vector<SynthOptions> plan;
   const double l0 = std::log(static_cast<double>(d.min_faces)), l1 = std::log(static_cast<double>(d.max_faces));
   for (size_t i = 0; i < d.count; ++i) {
-    SynthOptions o;
+    SynthOptions o = d.base;
     o.archetype = kConcrete[rng.uniform_int(0, 4)];
     o.target_faces = static_cast<size_t>(std::llround(std::exp(rng.uniform(l0, l1))));
     o.target_faces = std::clamp(o.target_faces, d.min_faces, d.max_faces);
@@ -224,12 +271,14 @@ json write_dataset(const DatasetOptions& d, const std::string& out_dir, const st
                       {"truth", m.name + "/" + m.name + ".truth.json"}, {"archetype", m.truth.archetype},
                       {"faces", m.mesh.faces.size()}, {"target_faces", plan[i].target_faces},
                       {"seed", plan[i].seed}, {"noise_cm", plan[i].noise_cm}, {"holes", plan[i].holes},
-                      {"charts", m.truth.num_charts}, {"pages", m.mesh.pages.size()}});
+                      {"charts", m.truth.num_charts}, {"pages", m.mesh.pages.size()},
+                      {"mirrored_faces", std::count(m.truth.face_mirrored.begin(), m.truth.face_mirrored.end(), 1)},
+                      {"clutter_faces", m.truth.clutter_faces}});
     if (progress) progress(i + 1, plan.size());
   }
   json manifest = {{"generator", "texdefrag synth"}, {"format_version", 1}, {"seed", d.seed}, {"count", d.count},
                    {"min_faces", d.min_faces}, {"max_faces", d.max_faces}, {"noise_cm", d.noise_cm},
-                   {"models", models}};
+                   {"preset", d.preset}, {"models", models}};
   write_file_atomic((fs::path(out_dir) / "manifest.json").string(), manifest.dump(2) + "\n");
   return manifest;
 }

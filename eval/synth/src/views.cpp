@@ -131,7 +131,7 @@ std::vector<Camera> make_cameras(const Shape& shape, Rng& rng) {
 }
 
 std::vector<int> select_views(const RawMesh& m, const Shape& shape, const std::vector<Camera>& cams, double noise,
-                              double noise_iid, int passes, Rng& rng) {
+                              double noise_iid, int passes, Rng& rng, double cross_plane, Rng& cross_rng) {
   const size_t F = m.tris.size(), C = cams.size();
   const HeightField hf = height_field(m, shape);
   std::vector<uint8_t> valid(F * C, 0);
@@ -194,6 +194,20 @@ std::vector<int> select_views(const RawMesh& m, const Shape& shape, const std::v
           break;
         }
     }
+  // Charts across planes: a face next to another plane takes that neighbour's view when it sees it.
+  if (cross_plane > 0) {
+    std::vector<int> next = view;
+    for (size_t f = 0; f < F; ++f)
+      for (int g : nbr[f]) {
+        if (g < 0 || m.face_plane[static_cast<size_t>(g)] == m.face_plane[f]) continue;
+        const int l = view[static_cast<size_t>(g)];
+        if (l != view[f] && valid[f * C + static_cast<size_t>(l)] && cross_rng.chance(cross_plane)) {
+          next[f] = l;
+          break;
+        }
+      }
+    view.swap(next);
+  }
   for (int pass = 0; pass < passes; ++pass) {
     std::vector<int> next = view;
     for (size_t f = 0; f < F; ++f) {

@@ -32,11 +32,11 @@ namespace texdefrag::synth {
 enum class Archetype { Residential, Factory, Hotel, LShape, Courtyard, Mixed };
 
 /// Semantic class of a face. The numeric values are the ones written to the truth JSON.
-enum class SemanticClass : uint8_t { Wall = 0, Roof = 1, Ground = 2, Detail = 3 };
+enum class SemanticClass : uint8_t { Wall = 0, Roof = 1, Ground = 2, Detail = 3, Vegetation = 4 };
 
 /// "residential", "factory", "hotel", "lshape", "courtyard", "mixed".
 const char* to_string(Archetype a);
-/// "wall", "roof", "ground", "detail".
+/// "wall", "roof", "ground", "detail", "vegetation".
 const char* to_string(SemanticClass c);
 /// Parses an archetype name (as printed by to_string). Returns nullopt for an unknown name.
 std::optional<Archetype> parse_archetype(const std::string& name);
@@ -69,7 +69,43 @@ struct SynthOptions {
   int page_size = 1024;
   /// When false, pages keep their size but no colours are rendered (faster; tests of geometry).
   bool render_pages = true;
+
+  // Features of real photogrammetry exports that make defragmentation hard (docs/synth.md, "The
+  // hard preset"); all off by default, so the default buildings stay as they were.
+  /// Share of the faces, in [0, 1], in charts whose UVs are mirrored (u -> -u) relative to the
+  /// others, 3D winding unchanged: their signed UV area has the opposite sign. Charts are drawn at
+  /// random until the share is reached (exact within one chart).
+  double mirror_fraction = 0;
+  /// Share of the faces, in [0, 0.5], whose three UV corners are one point (zero UV area), each
+  /// such face with its own texture coordinates at its first corner's UV.
+  double zero_uv_fraction = 0;
+  /// Share of the charts, in [0, 0.5], laid over a larger chart of the same page (input UV overlaps;
+  /// the later chart's colours win where they overlap).
+  double overlap_fraction = 0;
+  /// Perspective texel-density gradient inside each chart, in [0, 1.5]: a 2D homography with
+  /// density ratio (1 + g/2) / (1 - g/2) across the chart along a random direction.
+  double perspective = 0;
+  /// Standard deviation, in [0, 1], of the natural log of a per-chart texel-density factor
+  /// (density jumps between neighbouring charts beyond the cameras' own).
+  double density_jitter = 0;
+  /// Standard deviation, in [0, 0.5], of a per-chart exposure factor (brightness steps at seams
+  /// beyond the cameras' own exposures).
+  double exposure_sd = 0;
+  /// Share of the surface area, in [0, 0.8], given to trees (class vegetation) and ground clutter
+  /// (cars, bins, bushes: class detail) on the ground patch around the building.
+  double clutter_fraction = 0;
+  /// Probability, in [0, 1], that a face whose neighbour lies on another plane takes that
+  /// neighbour's view (when the view sees it): more charts crossing plane boundaries.
+  double cross_plane = 0;
 };
+
+/// Named option sets. "default": SynthOptions{} as is. "hard": the features of real
+/// ContextCapture tiles (mirrored charts, zero-UV-area faces, overlaps, density gradients and
+/// jumps, exposure steps, trees and clutter, charts across planes) with fragmentation matched to
+/// the real tiles (docs/synth.md, realism table). Returns false for an unknown name.
+bool apply_preset(const std::string& name, SynthOptions& options);
+/// Names accepted by apply_preset.
+std::vector<std::string> preset_names();
 
 /// A pinhole camera. Pixel (x right, y down) of a world point p:
 /// q = R (p - position); x = cx + focal_px * q.x / q.z; y = cy + focal_px * q.y / q.z (q.z > 0).
@@ -105,6 +141,19 @@ struct SynthTruth {
   size_t welded_vertices = 0;              ///< distinct 3D vertices before per-chart duplication
   double mean_edge_m = 0;                  ///< target edge length used by the triangulation, metres
   double texels_per_metre = 0;             ///< mean atlas resolution
+  /// Per face (output order): 1 when its chart's UVs are mirrored (mirror_fraction).
+  std::vector<uint8_t> face_mirrored;
+  /// Per face: 1 when its UV area is zero by construction (zero_uv_fraction).
+  std::vector<uint8_t> face_zero_uv;
+  /// Charts laid over another chart (overlap_fraction): (chart, host chart) pairs.
+  std::vector<std::array<int, 2>> overlapping_charts;
+  /// Per chart (face_chart index): its own exposure factor (exposure_sd; 1 when off).
+  std::vector<double> chart_exposure;
+  /// Faces on trees and ground clutter (clutter_fraction).
+  size_t clutter_faces = 0;
+  /// Edges between faces of two different planes (manifold edges only), and those of them inside
+  /// a chart (both faces in the same chart): charts crossing plane boundaries (cross_plane).
+  size_t plane_edges = 0, plane_edges_in_chart = 0;
 };
 
 struct SynthModel {
@@ -133,6 +182,11 @@ struct DatasetOptions {
   size_t max_faces = 200000;
   double noise_cm = 2.0;        ///< as SynthOptions::noise_cm
   bool render_pages = true;     ///< as SynthOptions::render_pages
+  /// Every building's options start from this (e.g. a preset); archetype, target_faces, seed,
+  /// noise_cm, holes and render_pages are then set per building.
+  SynthOptions base;
+  /// Name of the preset `base` came from, written to the manifest.
+  std::string preset = "default";
 };
 
 /// The per-building options of a data set (archetype, size, seed), without generating anything.
