@@ -115,6 +115,9 @@ int main(int argc, char** argv) {
   run->add_flag("--quiet,-q", quiet, "No progress bar and no summary line");
   run->add_flag("--no-write", no_write, "Run the stages and report, write nothing");
   run->add_flag("--report", print_report, "Print the run report JSON on standard output");
+  bool allow_missing = false;
+  run->add_flag("--allow-missing-children", allow_missing,
+                "Process models whose referenced child files (OSGB PagedLOD levels) are missing; listed in the report");
   run->callback([&] {
     exit_code = guarded([&] {
       const PipelineConfig cfg = load_config(config_path, sets);
@@ -126,6 +129,7 @@ int main(int argc, char** argv) {
       ro.input = input;
       ro.output_dir = output_dir;
       ro.write_output = !no_write;
+      ro.allow_missing_children = allow_missing;
       ro.progress = make_progress(quiet);
       const json report = run_pipeline(cfg, ro);
       if (print_report) std::cout << report.dump(2) << "\n";

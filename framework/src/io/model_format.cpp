@@ -3,6 +3,7 @@
 
 #include "texdefrag/io/jpeg_quality.h"
 #include "texdefrag/io/obj_format.h"
+#include "texdefrag/io/osgb.h"
 
 #include <algorithm>
 #include <cctype>
@@ -25,7 +26,8 @@ const std::vector<const ModelFormat*>& model_formats() {
   // note: the order is the order can_read is asked in; formats that sniff content come after the
   // ones that decide by extension alone.
   static const ObjFormat obj;
-  static const std::vector<const ModelFormat*> all = {&obj};
+  static const OsgbFormat osgb;
+  static const std::vector<const ModelFormat*> all = {&obj, &osgb};
   return all;
 }
 

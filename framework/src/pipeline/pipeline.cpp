@@ -244,6 +244,13 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     progress("read", 0);
     model = format.read(options.input);
     node["format"] = format.name();
+    if (!model.missing_files.empty()) {
+      if (!options.allow_missing_children)
+        throw FormatError(model.missing_files.front() +
+                          (model.missing_files.size() > 1 ? " (and " + std::to_string(model.missing_files.size() - 1) + " more)" : "") +
+                          "; allow_missing_children (--allow-missing-children) processes the file anyway");
+      node["missing_files"] = model.missing_files;
+    }
     node["faces"] = mesh.faces.size();
     node["positions"] = mesh.positions.size();
     node["texcoords"] = mesh.texcoords.size();

@@ -68,6 +68,10 @@ struct LoadedModel {
   std::vector<PageEncoding> page_encodings;
   /// Every file the model was read from or references (model, MTLs, images, ...): never written.
   std::vector<std::string> input_files;
+  /// Files the model references that do not exist (e.g. a PagedLOD child), each as
+  /// "CHILD: no such file (child 'NAME' of FILE)". The reader does not throw for them: the caller
+  /// decides (the pipeline refuses them unless RunOptions::allow_missing_children).
+  std::vector<std::string> missing_files;
   /// Per-format state for write(); may be null for formats that need none.
   std::shared_ptr<ModelSource> source;
 

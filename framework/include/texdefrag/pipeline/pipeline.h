@@ -60,6 +60,10 @@ struct RunOptions {
   std::string output_dir;   ///< created if missing; must not be the input's folder
   ProgressFn progress;      ///< may be empty
   bool write_output = true; ///< false: run the stages and report, write nothing
+  /// false: a file the input references that does not exist (an OSGB PagedLOD child) is an error
+  /// naming it and its parent; true: listed in the report's read node (`missing_files`) and the
+  /// model is processed (for pyramids delivered without their finest level).
+  bool allow_missing_children = false;
 };
 
 /// Runs the pipeline. Returns the run report (also written as OUTDIR/<stem>.report.json).

@@ -1,0 +1,247 @@
+// OSGB in and out on tiny scene graphs built here with the osg API: triangles, strips, fans,
+// double vertices, a PagedLOD with an inline and a file child, two textures (one shared by two
+// geometries). The round trip with configs/repack.json keeps every face and position bit-identical
+// and the node structure identical; bad inputs are errors naming the file.
+#include "osgb_test_util.h"
+#include "texdefrag/io/osgb.h"
+#include "texdefrag/pipeline/pipeline.h"
+#include "texdefrag/testing/fixtures.h"
+#include "texdefrag/util/paths.h"
+
+#include <osg/Geode>
+#include <osg/Geometry>
+#include <osg/MatrixTransform>
+#include <osg/PagedLOD>
+#include <osg/Texture2D>
+#include <osgDB/WriteFile>
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+namespace fs = std::filesystem;
+using namespace texdefrag;
+
+namespace {
+
+/// A 32x32 RGB texture whose texels encode their position (x*8, y*8) and the page.
+osg::ref_ptr<osg::Texture2D> make_texture(const std::string& name, int page) {
+  osg::ref_ptr<osg::Image> im = new osg::Image;
+  im->allocateImage(32, 32, 1, GL_RGB, GL_UNSIGNED_BYTE);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x) {
+      unsigned char* p = im->data(x, y);
+      p[0] = static_cast<unsigned char>(x * 8);
+      p[1] = static_cast<unsigned char>(y * 8);
+      p[2] = static_cast<unsigned char>(page * 100);
+    }
+  im->setFileName(name);
+  osg::ref_ptr<osg::Texture2D> t = new osg::Texture2D(im.get());
+  t->setWrap(osg::Texture::WRAP_S, osg::Texture::CLAMP_TO_EDGE);
+  return t;
+}
+
+osg::ref_ptr<osg::StateSet> textured(osg::Texture2D* t) {
+  osg::ref_ptr<osg::StateSet> ss = new osg::StateSet;
+  ss->setTextureAttributeAndModes(0, t, osg::StateAttribute::ON);
+  return ss;
+}
+
+/// A row of n vertices on two lines (x = i/2, y = i%2), UVs in [u0, u0+0.35] x [v0, v0+0.35].
+template <class VecArray>
+osg::ref_ptr<osg::Geometry> strip_geometry(int n, double u0, double v0, double z) {
+  osg::ref_ptr<osg::Geometry> g = new osg::Geometry;
+  osg::ref_ptr<VecArray> v = new VecArray;
+  osg::ref_ptr<osg::Vec2Array> tc = new osg::Vec2Array;
+  for (int i = 0; i < n; ++i) {
+    v->push_back(typename VecArray::ElementDataType(0.1 + i / 2, 0.3 * (i % 2) + 0.7, z + 0.01 * i));
+    tc->push_back(osg::Vec2(static_cast<float>(u0 + 0.35 * (i / 2) / (n / 2)), static_cast<float>(v0 + 0.35 * (i % 2))));
+  }
+  g->setVertexArray(v.get());
+  g->setTexCoordArray(0, tc.get(), osg::Array::BIND_PER_VERTEX);
+  return g;
+}
+
+struct Scene {
+  std::string dir, tile, child;
+};
+
+/// tile.osgb: PagedLOD (inline Geode child + file child child.osgb) holding triangles (float),
+/// a strip (double), a fan (float, sharing texture A) under a MatrixTransform, and a
+/// DrawArrayLengths strip pair; child.osgb: one textured triangle list.
+Scene build_scene(const std::string& dir, bool with_child = true, bool with_lines = false) {
+  Scene s{dir, dir + "/tile.osgb", dir + "/child.osgb"};
+  osg::ref_ptr<osg::Texture2D> ta = make_texture("a.png", 0), tb = make_texture("b.png", 1);
+
+  osg::ref_ptr<osg::Geometry> tris = strip_geometry<osg::Vec3Array>(6, 0.05, 0.05, 0);
+  osg::ref_ptr<osg::DrawElementsUShort> de = new osg::DrawElementsUShort(GL_TRIANGLES);
+  for (unsigned short i : {0, 2, 1, 1, 2, 3, 2, 4, 3, 3, 4, 5}) de->push_back(i);
+  tris->addPrimitiveSet(de.get());
+  if (with_lines) tris->addPrimitiveSet(new osg::DrawArrays(GL_LINES, 0, 2));
+  tris->setStateSet(textured(ta.get()).get());
+
+  osg::ref_ptr<osg::Geometry> strip = strip_geometry<osg::Vec3dArray>(8, 0.5, 0.05, 5);
+  strip->addPrimitiveSet(new osg::DrawArrays(GL_TRIANGLE_STRIP, 0, 8));
+  strip->setStateSet(textured(tb.get()).get());
+
+  osg::ref_ptr<osg::Geometry> fan = strip_geometry<osg::Vec3Array>(6, 0.05, 0.55, 10);
+  osg::ref_ptr<osg::DrawElementsUInt> fe = new osg::DrawElementsUInt(GL_TRIANGLE_FAN);
+  for (unsigned i : {0u, 1u, 3u, 5u, 4u, 2u}) fe->push_back(i);
+  fan->addPrimitiveSet(fe.get());
+  fan->setStateSet(textured(ta.get()).get());
+
+  osg::ref_ptr<osg::Geometry> lengths = strip_geometry<osg::Vec3Array>(8, 0.5, 0.55, 15);
+  osg::ref_ptr<osg::DrawArrayLengths> dal = new osg::DrawArrayLengths(GL_TRIANGLE_STRIP, 0);
+  dal->push_back(4);
+  dal->push_back(4);
+  lengths->addPrimitiveSet(dal.get());
+  lengths->setStateSet(textured(tb.get()).get());
+
+  osg::ref_ptr<osg::Geode> geode = new osg::Geode;
+  geode->addDrawable(tris.get());
+  geode->addDrawable(strip.get());
+  geode->addDrawable(lengths.get());
+  osg::ref_ptr<osg::Geode> fan_geode = new osg::Geode;
+  fan_geode->addDrawable(fan.get());
+  osg::ref_ptr<osg::MatrixTransform> xf = new osg::MatrixTransform(osg::Matrix::translate(100.5, -3.25, 7));
+  xf->addChild(fan_geode.get());
+  osg::ref_ptr<osg::Group> inline_child = new osg::Group;
+  inline_child->addChild(geode.get());
+  inline_child->addChild(xf.get());
+
+  osg::ref_ptr<osg::PagedLOD> lod = new osg::PagedLOD;
+  lod->setCenterMode(osg::LOD::USER_DEFINED_CENTER);
+  lod->setCenter(osg::Vec3(1.5f, 2.25f, 3.125f));
+  lod->setRadius(42.5f);
+  lod->setRangeMode(osg::LOD::PIXEL_SIZE_ON_SCREEN);
+  lod->addChild(inline_child.get(), 0, 38.25f);
+  lod->setFileName(1, "child.osgb");
+  lod->setRange(1, 38.25f, 1e30f);
+  osg::ref_ptr<osgDB::Options> opt = new osgDB::Options("WriteImageHint=IncludeData");
+  EXPECT_TRUE(osgDB::writeNodeFile(*lod, s.tile, opt.get()));
+
+  if (with_child) {
+    osg::ref_ptr<osg::Geometry> c = strip_geometry<osg::Vec3Array>(6, 0.1, 0.1, 20);
+    osg::ref_ptr<osg::DrawElementsUShort> ce = new osg::DrawElementsUShort(GL_TRIANGLES);
+    for (unsigned short i : {0, 2, 1, 1, 2, 3, 2, 4, 3, 3, 4, 5}) ce->push_back(i);
+    c->addPrimitiveSet(ce.get());
+    c->setStateSet(textured(make_texture("c.png", 2).get()).get());
+    osg::ref_ptr<osg::Geode> cg = new osg::Geode;
+    cg->addDrawable(c.get());
+    EXPECT_TRUE(osgDB::writeNodeFile(*cg, s.child, opt.get()));
+  }
+  return s;
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+json run(const std::string& input, const std::string& out, const std::string& config = "repack.json") {
+  const PipelineConfig cfg = load_config((fs::path(source_dir()) / "configs" / config).string());
+  RunOptions ro;
+  ro.input = input;
+  ro.output_dir = out;
+  return run_pipeline(cfg, ro);
+}
+
+/// Colour of the texel under the centroid of face f's UV triangle.
+std::array<int, 3> centroid_colour(const LoadedModel& m, size_t f) {
+  const Face& F = m.mesh.faces[f];
+  Vec2 c(0, 0);
+  for (int k = 0; k < 3; ++k) c += m.mesh.texcoords[static_cast<size_t>(F.vt[static_cast<size_t>(k)])] / 3.0;
+  const Image& img = m.page_images[static_cast<size_t>(F.page)];
+  const int x = std::clamp(static_cast<int>(c.x() * img.width), 0, img.width - 1);
+  const int y = std::clamp(img.height - 1 - static_cast<int>(c.y() * img.height), 0, img.height - 1);
+  const uint8_t* p = img.at(x, y);
+  return {p[0], p[1], p[2]};
+}
+
+}  // namespace
+
+TEST(Osgb, ReadsEveryPrimitiveKind) {
+  const Scene s = build_scene(texdefrag::testing::temp_dir());
+  ASSERT_EQ(format_for_input(s.tile).name(), "osgb");
+  const LoadedModel m = OsgbFormat().read(s.tile);
+  // triangles 4, strip of 8 -> 6, fan of 6 -> 4, two strips of 4 -> 2 + 2
+  EXPECT_EQ(m.mesh.faces.size(), 4u + 6u + 4u + 4u);
+  EXPECT_EQ(m.mesh.pages.size(), 2u);  // a.png (shared by two geometries) and b.png
+  EXPECT_EQ(m.page_images.size(), 2u);
+  EXPECT_TRUE(m.missing_files.empty());
+  // Strip winding as OpenGL draws it: triangle 1 of the strip is (2, 1, 3).
+  const Face& odd = m.mesh.faces[5];
+  EXPECT_EQ(odd.v[0] - m.mesh.faces[4].v[0], 2);
+  EXPECT_EQ(odd.v[1] - m.mesh.faces[4].v[0], 1);
+  EXPECT_EQ(odd.v[2] - m.mesh.faces[4].v[0], 3);
+  // Double positions are kept exactly (0.1 + 0 is not a float).
+  EXPECT_EQ(m.mesh.positions[static_cast<size_t>(m.mesh.faces[4].v[0])].x(), 0.1);
+  EXPECT_EQ(osgb_children(s.tile), std::vector<std::string>{s.child});
+}
+
+TEST(Osgb, RoundTripKeepsFacesPositionsAndStructure) {
+  const Scene s = build_scene(texdefrag::testing::temp_dir());
+  const std::string out = s.dir + "/out";
+  const json report = run(s.tile, out);
+  const std::string written = out + "/tile.osgb";
+  ASSERT_TRUE(fs::exists(written));
+  EXPECT_EQ(report["stages"]["write"]["format"], "osgb");
+  EXPECT_EQ(report["stages"]["write"]["geometries_split"], 0);
+  const LoadedModel in = OsgbFormat().read(s.tile);
+  const LoadedModel back = OsgbFormat().read(written);
+  osgb_test::expect_same_positions(in.mesh, back.mesh, written);
+  EXPECT_EQ(osgb_test::structure(s.tile), osgb_test::structure(written));
+  ASSERT_EQ(back.mesh.pages.size(), 1u);  // both 32x32 pages packed onto one
+  EXPECT_EQ(back.page_encodings[0].format, "png");
+  // Texels are copied exactly (repack moves charts by whole texels).
+  for (size_t f = 0; f < in.mesh.faces.size(); ++f) EXPECT_EQ(centroid_colour(in, f), centroid_colour(back, f)) << f;
+  // The child file name is kept relative, not turned into the input's folder.
+  std::ifstream raw(written, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(raw)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(bytes.find(s.dir), std::string::npos) << "the output names the input folder";
+  EXPECT_NE(bytes.find("child.osgb"), std::string::npos);
+}
+
+TEST(Osgb, WrittenFilesReadBackInOsgconv) {
+  if (std::system("command -v osgconv > /dev/null 2>&1") != 0) GTEST_SKIP() << "osgconv not installed (Debian package openscenegraph)";
+  const Scene s = build_scene(texdefrag::testing::temp_dir());
+  const std::string out = s.dir + "/out";
+  run(s.tile, out, "best.json");
+  const std::string cmd = "osgconv '" + out + "/tile.osgb' '" + s.dir + "/check.osgt' > '" + s.dir + "/osgconv.log' 2>&1";
+  EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  EXPECT_TRUE(fs::exists(s.dir + "/check.osgt"));
+}
+
+TEST(Osgb, MissingChildIsAnErrorNamingFileAndParent) {
+  const Scene s = build_scene(texdefrag::testing::temp_dir(), false);
+  const std::string e = error_of([&] { run(s.tile, s.dir + "/out"); });
+  EXPECT_NE(e.find(s.child), std::string::npos) << e;
+  EXPECT_NE(e.find("of " + s.tile), std::string::npos) << e;
+  EXPECT_FALSE(fs::exists(s.dir + "/out/tile.osgb"));
+  const LoadedModel m = OsgbFormat().read(s.tile);
+  EXPECT_EQ(m.missing_files.size(), 1u);
+}
+
+TEST(Osgb, LinesInATexturedGeometryAreAnError) {
+  const Scene s = build_scene(texdefrag::testing::temp_dir(), true, true);
+  const std::string e = error_of([&] { OsgbFormat().read(s.tile); });
+  EXPECT_NE(e.find(s.tile + ": primitive set 1 (DrawArrays) of a textured geometry: unsupported"), std::string::npos) << e;
+}
+
+TEST(Osgb, TruncatedFileIsAnErrorNamingIt) {
+  const Scene s = build_scene(texdefrag::testing::temp_dir());
+  const std::string cut = s.dir + "/cut.osgb";
+  {
+    std::ifstream in(s.tile, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  }
+  const std::string e = error_of([&] { OsgbFormat().read(cut); });
+  EXPECT_EQ(e.rfind(cut + ": ", 0), 0u) << e;
+}
