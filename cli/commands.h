@@ -10,4 +10,7 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code);   // eval/metrics
 CLI::App* add_bench_command(CLI::App& app, int& exit_code);  // eval/bench
 CLI::App* add_synth_command(CLI::App& app, int& exit_code);  // eval/synth
 CLI::App* add_buildings_command(CLI::App& app, int& exit_code);  // eval/buildings
+// cli/cmd_batch.cpp (docs/batch.md)
+CLI::App* add_tasks_command(CLI::App& app, int& exit_code);  // the task list of a production
+CLI::App* add_batch_command(CLI::App& app, int& exit_code);  // execs tools/batch/texdefrag_batch
 }  // namespace texdefrag::cli

@@ -211,6 +211,9 @@ int main(int argc, char** argv) {
   cli::add_buildings_command(app, exit_code);
 #endif
 
+  cli::add_tasks_command(app, exit_code);
+  cli::add_batch_command(app, exit_code);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

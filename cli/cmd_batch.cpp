@@ -1,0 +1,197 @@
+// `texdefrag tasks` and `texdefrag batch` (docs/batch.md).
+//
+// tasks: the task list of a production, as JSON: one task per tile file and level, a task being
+//        "run texdefrag on one input file, write its outputs into one output folder". This is the
+//        one place that knows how a production is laid out; the batch driver only reads the list.
+// batch: runs a task list in parallel processes or on a Dask cluster with a journal. The driver
+//        is Python (tools/batch/texdefrag_batch): Dask's client, SQLite and process supervision
+//        are Python's standard ground, and the workers only ever exec this executable. This
+//        command execs `python -m texdefrag_batch --texdefrag <this executable> ARGS...`.
+#include "commands.h"
+
+#include "texdefrag/util/paths.h"
+
+#include <nlohmann/json.hpp>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+#include <vector>
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace texdefrag::cli {
+namespace {
+
+bool is_obj(const fs::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".obj";
+}
+
+fs::path normal_absolute(const fs::path& p) { return fs::absolute(p).lexically_normal(); }
+
+bool is_under(const fs::path& path, const fs::path& dir) {
+  const std::string p = normal_absolute(path).generic_string(), d = normal_absolute(dir).generic_string();
+  return p == d || (p.size() > d.size() && p.compare(0, d.size(), d) == 0 && (d.back() == '/' || p[d.size()] == '/'));
+}
+
+/// One task: the input file, its id (path relative to the production root without extension,
+/// '/'-separated, unique) and the output folder relative to the output root (the input's folder
+/// relative to the production root, so the output has the production's layout).
+json make_task(const fs::path& root, const fs::path& file) {
+  const fs::path rel = file.lexically_relative(root);
+  fs::path id = rel;
+  id.replace_extension();
+  const std::string dir = rel.parent_path().generic_string();
+  return {{"id", id.generic_string()},
+          {"input", normal_absolute(file).string()},
+          {"output_dir", dir.empty() ? "." : dir},
+          {"tile", dir.empty() ? id.generic_string() : dir},
+          {"level", nullptr}};
+}
+
+/// Every OBJ tile under `root` (recursively, sorted by path), except hidden folders, files under
+/// `exclude` and texdefrag outputs (an OBJ with its <stem>.report.json beside it).
+json obj_folder_tasks(const fs::path& root, const fs::path& exclude) {
+  std::vector<fs::path> files;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(root, fs::directory_options::skip_permission_denied, ec), end;
+       it != end; it.increment(ec)) {
+    if (ec) break;
+    const fs::path p = it->path();
+    if (it->is_directory(ec)) {
+      if (p.filename().string().front() == '.' || (!exclude.empty() && is_under(p, exclude)))
+        it.disable_recursion_pending();
+      continue;
+    }
+    if (!it->is_regular_file(ec) || !is_obj(p)) continue;
+    if (fs::exists(p.parent_path() / (p.stem().string() + ".report.json"))) continue;
+    files.push_back(p);
+  }
+  if (ec) throw std::runtime_error("cannot list " + root.string() + ": " + ec.message());
+  std::sort(files.begin(), files.end());
+  json tasks = json::array();
+  for (const auto& f : files) tasks.push_back(make_task(root, f));
+  return tasks;
+}
+
+}  // namespace
+
+json production_tasks(const std::string& input, const std::string& exclude) {
+  const fs::path in(input);
+  std::error_code ec;
+  const auto st = fs::status(in, ec);
+  if (ec || !fs::exists(st)) throw std::runtime_error(input + ": no such file or folder");
+  json out = {{"input", normal_absolute(in).string()}, {"copies", json::array()}};
+  if (fs::is_regular_file(st)) {
+    if (!is_obj(in)) throw std::runtime_error(input + ": not a production (expected a folder of OBJ tiles or an .obj)");
+    out["kind"] = "obj_file";
+    out["root"] = normal_absolute(in.parent_path().empty() ? fs::path(".") : in.parent_path()).string();
+    out["tasks"] = json::array({make_task(out["root"].get<std::string>(), in)});
+    return out;
+  }
+  if (!fs::is_directory(st)) throw std::runtime_error(input + ": not a regular file or a folder");
+  out["kind"] = "obj_folder";
+  out["root"] = out["input"];
+  out["tasks"] = obj_folder_tasks(in, exclude.empty() ? fs::path() : fs::path(exclude));
+  if (out["tasks"].empty()) throw std::runtime_error(input + ": no OBJ tile found (searched recursively, hidden folders and texdefrag outputs skipped)");
+  return out;
+}
+
+CLI::App* add_tasks_command(CLI::App& app, int& exit_code) {
+  struct Args {
+    std::string input, exclude;
+    bool json = false;
+  };
+  auto args = std::make_shared<Args>();
+  auto* sub = app.add_subcommand("tasks", "List the tasks of a production (one per tile file and level)");
+  sub->add_option("input", args->input, "Production: a folder of OBJ tiles or one .obj")->required();
+  sub->add_option("--exclude", args->exclude, "A folder whose files are never tasks (the batch output)");
+  sub->add_flag("--json", args->json, "JSON output (the batch driver's input; docs/batch.md)");
+  sub->callback([args, &exit_code] {
+    try {
+      const json t = production_tasks(args->input, args->exclude);
+      if (args->json) {
+        std::cout << t.dump(1) << "\n";
+      } else {
+        for (const auto& task : t["tasks"])
+          std::cout << task["id"].get<std::string>() << "\t" << task["input"].get<std::string>() << "\n";
+        std::cerr << t["tasks"].size() << " task(s) in " << t["kind"].get<std::string>() << " " << t["input"].get<std::string>() << "\n";
+      }
+      exit_code = 0;
+    } catch (const std::exception& e) {
+      std::cerr << "texdefrag tasks: " << e.what() << "\n";
+      exit_code = 1;
+    }
+  });
+  return sub;
+}
+
+namespace {
+
+/// The folder holding the texdefrag_batch package: installed beside the executable
+/// (<prefix>/share/texdefrag/python), else the source tree's tools/batch, else "".
+std::string driver_dir(const fs::path& self) {
+  const fs::path installed = self.parent_path().parent_path() / "share" / "texdefrag" / "python";
+  if (fs::exists(installed / "texdefrag_batch" / "__main__.py")) return installed.string();
+  const fs::path source = fs::path(source_dir()) / "tools" / "batch";
+  if (fs::exists(source / "texdefrag_batch" / "__main__.py")) return source.string();
+  return "";
+}
+
+}  // namespace
+
+CLI::App* add_batch_command(CLI::App& app, int& exit_code) {
+  auto* sub = app.add_subcommand("batch", "Defragment a whole production: parallel, resumable, on one machine or a Dask cluster "
+                                           "(texdefrag batch --help; docs/batch.md)");
+  // Every argument, --help included, goes to the driver, whose parser is the one reference.
+  sub->prefix_command();
+  sub->set_help_flag();
+  sub->callback([sub, &exit_code] {
+    std::error_code ec;
+    const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+    if (ec) {
+      std::cerr << "texdefrag batch: cannot locate this executable (/proc/self/exe): " << ec.message() << "\n";
+      exit_code = 2;
+      return;
+    }
+    const std::string dir = driver_dir(self);
+    if (dir.empty()) {
+      std::cerr << "texdefrag batch: the batch driver (texdefrag_batch) is neither in "
+                << (self.parent_path().parent_path() / "share/texdefrag/python").string() << " nor in "
+                << (fs::path(source_dir()) / "tools/batch").string() << "\n";
+      exit_code = 2;
+      return;
+    }
+    const char* old = std::getenv("PYTHONPATH");
+    const std::string pythonpath = dir + (old && *old ? ":" + std::string(old) : "");
+    ::setenv("PYTHONPATH", pythonpath.c_str(), 1);
+    const std::string python = python_executable();
+    std::vector<std::string> argv_s = {python, "-m", "texdefrag_batch", "--texdefrag", self.string(),
+                                       "--plots-dir", (fs::path(source_dir()) / "eval" / "plots").string()};
+    for (const auto& a : sub->remaining()) argv_s.push_back(a);
+    std::vector<char*> argv;
+    for (auto& s : argv_s) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    std::cout.flush();
+    std::cerr.flush();
+    ::execv(python.c_str(), argv.data());
+    std::cerr << "texdefrag batch: cannot run " << python << ": " << std::strerror(errno) << "\n";
+    exit_code = 2;
+  });
+  return sub;
+}
+
+}  // namespace texdefrag::cli

@@ -1,0 +1,1 @@
+"""texdefrag batch: a whole production, resumable and fault-tolerant, locally or on Dask (docs/batch.md)."""
