@@ -42,7 +42,8 @@ class DaskBatchTest(unittest.TestCase):
 
     @classmethod
     def start(cls, argv, log):
-        p = subprocess.Popen(argv, stdout=open(log, "w"), stderr=subprocess.STDOUT, start_new_session=True)
+        with open(log, "w") as f:
+            p = subprocess.Popen(argv, stdout=f, stderr=subprocess.STDOUT, start_new_session=True)
         cls.procs.append(p)
         return p
 
@@ -52,7 +53,7 @@ class DaskBatchTest(unittest.TestCase):
         shutil.rmtree(cls.work, ignore_errors=True)
         os.makedirs(cls.work)
         cls.prod = common.make_production(os.path.join(common.WORKDIR, "prod8"), 8, seed=11,
-                                          min_faces=4000, max_faces=8000)
+                                          min_faces=2000, max_faces=4000)
         port = free_port()
         cls.addr = f"tcp://127.0.0.1:{port}"
         cls.start([which("dask-scheduler"), "--host", "127.0.0.1", "--port", str(port), "--dashboard-address", ":0",

@@ -28,16 +28,17 @@ def order(files, stem):
 
 
 def commit(staging, files, output_root, output_dir, stem):
-    """Renames staging/out/<file> to output_root/output_dir/<file> in commit order; returns the
-    outputs' paths relative to output_root. Raises OSError naming the file on failure."""
+    """Renames staging/out/<file> to output_root/output_dir/<file> in commit order (files may be
+    relative paths with folders); returns the outputs' paths relative to output_root. Raises
+    OSError naming the file on failure."""
     src_dir = os.path.join(staging, "out")
     dst_dir = os.path.normpath(os.path.join(output_root, output_dir))
     os.makedirs(dst_dir, exist_ok=True)
     outputs = []
     for name in order(files, stem):
         src, dst = os.path.join(src_dir, name), os.path.join(dst_dir, name)
-        if os.path.isdir(src):
-            raise OSError(f"{src}: a folder among a run's outputs (not supported)")
+        if "/" in name:
+            os.makedirs(os.path.dirname(dst), exist_ok=True)
         try:
             os.replace(src, dst)
         except OSError as e:

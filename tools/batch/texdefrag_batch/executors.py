@@ -75,7 +75,7 @@ class DaskExecutor:
             raise ExecutorError(f"the Dask scheduler at {address} has no worker after {connect_timeout:g} s "
                                 f"({e}); start dask-worker {address} on the machines (docs/batch.md)") from None
         self._check(check_paths)
-        self.ac = distributed.as_completed([], with_results=False)
+        self.ac = distributed.as_completed([], loop=self.client.loop, with_results=False)
         self.pending = {}
 
     def _check(self, paths):

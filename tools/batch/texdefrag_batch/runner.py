@@ -138,10 +138,21 @@ def run_attempt(spec):
             res["figures"] = _report_figures(json.load(f))
     except (OSError, ValueError) as e:
         return done("failed", f"exit code 0 but no readable run report on standard output ({e})")
-    res["files"] = sorted(os.listdir(out_dir))
+    res["files"] = output_files(out_dir)
     if not res["files"]:
         return done("failed", "exit code 0 but no output file")
     return done("ok")
+
+
+def output_files(out_dir):
+    """The files a run wrote, as '/'-separated paths relative to out_dir, sorted; hidden names (the
+    run's own lock and staging, `.texdefrag*`) are not outputs."""
+    files = []
+    for root, dirs, names in os.walk(out_dir):
+        dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+        rel = os.path.relpath(root, out_dir)
+        files += [n if rel == "." else f"{rel}/{n}" for n in names if not n.startswith(".")]
+    return sorted(files)
 
 
 def probe(paths):
