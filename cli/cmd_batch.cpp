@@ -9,6 +9,7 @@
 //        command execs `python -m texdefrag_batch --texdefrag <this executable> ARGS...`.
 #include "commands.h"
 
+#include "texdefrag/io/model_format.h"
 #include "texdefrag/util/paths.h"
 
 #include <nlohmann/json.hpp>
@@ -34,10 +35,17 @@ using json = nlohmann::json;
 namespace texdefrag::cli {
 namespace {
 
-bool is_obj(const fs::path& p) {
-  std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext == ".obj";
+/// True when a built-in model format reads `p` (io/model_format.h: OBJ today, more as they land).
+bool is_model(const fs::path& p) {
+  for (const ModelFormat* f : model_formats())
+    if (f->can_read(p.string())) return true;
+  return false;
+}
+
+std::string format_names() {
+  std::string s;
+  for (const ModelFormat* f : model_formats()) s += (s.empty() ? "" : ", ") + f->name();
+  return s;
 }
 
 fs::path normal_absolute(const fs::path& p) { return fs::absolute(p).lexically_normal(); }
@@ -62,9 +70,10 @@ json make_task(const fs::path& root, const fs::path& file) {
           {"level", nullptr}};
 }
 
-/// Every OBJ tile under `root` (recursively, sorted by path), except hidden folders, files under
-/// `exclude` and texdefrag outputs (an OBJ with its <stem>.report.json beside it).
-json obj_folder_tasks(const fs::path& root, const fs::path& exclude) {
+/// Every model file under `root` that a built-in format reads (recursively, sorted by path), except
+/// hidden folders, files under `exclude` and texdefrag outputs (a model with its <stem>.report.json
+/// beside it).
+json folder_tasks(const fs::path& root, const fs::path& exclude) {
   std::vector<fs::path> files;
   std::error_code ec;
   for (fs::recursive_directory_iterator it(root, fs::directory_options::skip_permission_denied, ec), end;
@@ -76,7 +85,7 @@ json obj_folder_tasks(const fs::path& root, const fs::path& exclude) {
         it.disable_recursion_pending();
       continue;
     }
-    if (!it->is_regular_file(ec) || !is_obj(p)) continue;
+    if (!it->is_regular_file(ec) || !is_model(p)) continue;
     if (fs::exists(p.parent_path() / (p.stem().string() + ".report.json"))) continue;
     files.push_back(p);
   }
@@ -89,6 +98,11 @@ json obj_folder_tasks(const fs::path& root, const fs::path& exclude) {
 
 }  // namespace
 
+/// The task list of a production (docs/batch.md, "Tasks"): {"input", "root", "kind", "tasks",
+/// "copies"}. input: a folder (kind "folder": every model file under it, see folder_tasks) or one
+/// model file (kind "file"); exclude: a folder never searched (the batch output), may be "".
+/// Throws std::runtime_error naming the input when it is missing, unreadable or holds no model.
+/// Production formats (OSGB metadata.xml pyramids, 3D Tiles tilesets) add their branch here.
 json production_tasks(const std::string& input, const std::string& exclude) {
   const fs::path in(input);
   std::error_code ec;
@@ -96,17 +110,20 @@ json production_tasks(const std::string& input, const std::string& exclude) {
   if (ec || !fs::exists(st)) throw std::runtime_error(input + ": no such file or folder");
   json out = {{"input", normal_absolute(in).string()}, {"copies", json::array()}};
   if (fs::is_regular_file(st)) {
-    if (!is_obj(in)) throw std::runtime_error(input + ": not a production (expected a folder of OBJ tiles or an .obj)");
-    out["kind"] = "obj_file";
+    if (!is_model(in))
+      throw std::runtime_error(input + ": not a production nor a model file (formats: " + format_names() + ")");
+    out["kind"] = "file";
     out["root"] = normal_absolute(in.parent_path().empty() ? fs::path(".") : in.parent_path()).string();
     out["tasks"] = json::array({make_task(out["root"].get<std::string>(), in)});
     return out;
   }
   if (!fs::is_directory(st)) throw std::runtime_error(input + ": not a regular file or a folder");
-  out["kind"] = "obj_folder";
+  out["kind"] = "folder";
   out["root"] = out["input"];
-  out["tasks"] = obj_folder_tasks(in, exclude.empty() ? fs::path() : fs::path(exclude));
-  if (out["tasks"].empty()) throw std::runtime_error(input + ": no OBJ tile found (searched recursively, hidden folders and texdefrag outputs skipped)");
+  out["tasks"] = folder_tasks(in, exclude.empty() ? fs::path() : fs::path(exclude));
+  if (out["tasks"].empty())
+    throw std::runtime_error(input + ": no model file found (formats: " + format_names() +
+                             "; searched recursively, hidden folders and texdefrag outputs skipped)");
   return out;
 }
 
@@ -117,7 +134,7 @@ CLI::App* add_tasks_command(CLI::App& app, int& exit_code) {
   };
   auto args = std::make_shared<Args>();
   auto* sub = app.add_subcommand("tasks", "List the tasks of a production (one per tile file and level)");
-  sub->add_option("input", args->input, "Production: a folder of OBJ tiles or one .obj")->required();
+  sub->add_option("input", args->input, "Production: a folder of model files (OBJ tiles...) or one model file")->required();
   sub->add_option("--exclude", args->exclude, "A folder whose files are never tasks (the batch output)");
   sub->add_flag("--json", args->json, "JSON output (the batch driver's input; docs/batch.md)");
   sub->callback([args, &exit_code] {

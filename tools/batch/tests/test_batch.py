@@ -36,7 +36,7 @@ class BatchTest(unittest.TestCase):
     def setUpClass(cls):
         cls.work = os.path.join(common.WORKDIR, "local")
         os.makedirs(cls.work, exist_ok=True)
-        cls.prod = common.make_production(os.path.join(common.WORKDIR, "prod6"), 6, seed=3)
+        cls.prod = common.make_production(os.path.join(common.WORKDIR, "prod4"), 4, seed=3, min_faces=1000, max_faces=1200)
 
     def fresh(self, name):
         d = os.path.join(self.work, name)
@@ -49,11 +49,11 @@ class BatchTest(unittest.TestCase):
         common.copy_production(self.prod, inp)
         os.makedirs(os.path.join(inp, ".hidden"))
         shutil.copy(os.path.join(inp, "b0000", "b0000.obj"), os.path.join(inp, ".hidden", "x.obj"))
-        p = subprocess.run([common.EXE, "tasks", inp, "--json", "--exclude", os.path.join(inp, "b0005")],
+        p = subprocess.run([common.EXE, "tasks", inp, "--json", "--exclude", os.path.join(inp, "b0003")],
                            capture_output=True, text=True, check=True)
         t = json.loads(p.stdout)
-        self.assertEqual(t["kind"], "obj_folder")
-        self.assertEqual([x["id"] for x in t["tasks"]], [f"b000{i}/b000{i}" for i in range(5)])
+        self.assertEqual(t["kind"], "folder")
+        self.assertEqual([x["id"] for x in t["tasks"]], [f"b000{i}/b000{i}" for i in range(3)])
         self.assertEqual(t["tasks"][0]["output_dir"], "b0000")
         self.assertEqual(t["tasks"][0]["input"], os.path.join(inp, "b0000", "b0000.obj"))
         p = subprocess.run([common.EXE, "tasks", os.path.join(inp, "nope")], capture_output=True, text=True)
@@ -67,7 +67,7 @@ class BatchTest(unittest.TestCase):
         p = batch(inp, "-o", out, "--config", common.CONFIG, "-j", "2")
         self.assertEqual(p.returncode, 0, p.stderr)
         tasks, attempts = journal_rows(out)
-        self.assertEqual(len(tasks), 6)
+        self.assertEqual(len(tasks), 4)
         self.assertTrue(all(t["status"] == "finished" and t["attempts"] == 1 for t in tasks.values()), tasks)
         self.assertEqual(sorted(a["task_id"] for a in attempts if a["status"] == "finished"), sorted(tasks))
         # Same layout as the input: OUT/bNNNN/bNNNN.obj + .mtl + pages + report.
@@ -80,7 +80,7 @@ class BatchTest(unittest.TestCase):
         self.assertEqual(model_files(inp), before, "an input file changed")
         for f in ("summary.json", "results.csv", "summary.md"):
             self.assertTrue(os.path.isfile(os.path.join(out, ".texdefrag-batch", f)), f)
-        self.assertEqual(read_json(out, "summary.json")["tasks"], {"total": 6, "finished": 6, "failed": 0})
+        self.assertEqual(read_json(out, "summary.json")["tasks"], {"total": 4, "finished": 4, "failed": 0})
         with open(os.path.join(out, ".texdefrag-batch", "summary.md")) as f:
             self.assertIn("chart count reduction", f.read())
         first = model_files(out)
@@ -88,18 +88,18 @@ class BatchTest(unittest.TestCase):
         # A rerun skips everything.
         p = batch(inp, "-o", out, "--config", common.CONFIG)
         self.assertEqual(p.returncode, 0, p.stderr)
-        self.assertEqual(len(journal_rows(out)[1]), 6, "a finished task ran again")
+        self.assertEqual(len(journal_rows(out)[1]), 4, "a finished task ran again")
 
         # A changed page, a removed output and a changed configuration are each seen.
         page = sorted(f for f in os.listdir(os.path.join(inp, "b0002")) if f.endswith(".jpg"))[0]
         with open(os.path.join(inp, "b0002", page), "ab") as f:
             f.write(b"\0")
-        os.remove(os.path.join(out, "b0004", "b0004.mtl"))
+        os.remove(os.path.join(out, "b0003", "b0003.mtl"))
         p = batch(inp, "-o", out, "--config", common.CONFIG, "--dry-run")
         self.assertEqual(p.returncode, 0, p.stderr)
         decisions = dict(line.split("\t") for line in p.stdout.splitlines())
         self.assertEqual(decisions["b0002/b0002"], "input changed")
-        self.assertEqual(decisions["b0004/b0004"], "output b0004/b0004.mtl missing")
+        self.assertEqual(decisions["b0003/b0003"], "output b0003/b0003.mtl missing")
         self.assertEqual(decisions["b0000/b0000"], "skip")
         p = batch(inp, "-o", out, "--config", common.CONFIG, "--dry-run", "--set", "packer.gutter=3")
         decisions = dict(line.split("\t") for line in p.stdout.splitlines())
@@ -108,7 +108,7 @@ class BatchTest(unittest.TestCase):
         p = batch(inp, "-o", out, "--config", common.CONFIG)
         self.assertEqual(p.returncode, 0, p.stderr)
         _, attempts = journal_rows(out)
-        self.assertEqual(sorted(a["task_id"] for a in attempts[6:]), ["b0002/b0002", "b0004/b0004"])
+        self.assertEqual(sorted(a["task_id"] for a in attempts[4:]), ["b0002/b0002", "b0003/b0003"])
         again = model_files(out)
         self.assertEqual({k: v for k, v in again.items() if not k.startswith("b0002")},
                          {k: v for k, v in first.items() if not k.startswith("b0002")})
@@ -118,8 +118,6 @@ class BatchTest(unittest.TestCase):
         common.copy_production(self.prod, inp)
         # A malformed tile (the real reader's error), a tile whose page is missing, a crashing tile
         # (the wrapper executable), and good ones.
-        shutil.rmtree(os.path.join(inp, "b0004"))
-        shutil.rmtree(os.path.join(inp, "b0005"))
         with open(os.path.join(inp, "b0001", "b0001.obj"), "a") as f:
             f.write("f 1 2 banana\n")
         for x in os.listdir(os.path.join(inp, "b0003")):
@@ -184,9 +182,8 @@ class BatchTest(unittest.TestCase):
     def test_lock_journal_scheduler_errors(self):
         inp, out = self.fresh("errors")
         common.copy_production(self.prod, inp)
+        shutil.rmtree(os.path.join(inp, "b0002"))
         shutil.rmtree(os.path.join(inp, "b0003"))
-        shutil.rmtree(os.path.join(inp, "b0004"))
-        shutil.rmtree(os.path.join(inp, "b0005"))
         self.assertEqual(batch(inp, "-o", out, "--config", common.CONFIG).returncode, 0)
         outputs = model_files(out)
 

@@ -34,7 +34,7 @@ def parse_args(argv):
                                  formatter_class=argparse.RawDescriptionHelpFormatter,
                                  epilog="Exit codes: 0 all finished, 1 some task failed, 2 could not start, "
                                         "130 interrupted. docs/batch.md has the journal, layout and cluster setup.")
-    ap.add_argument("input", help="production: a folder of OBJ tiles (recursively) or one .obj")
+    ap.add_argument("input", help="production: a folder of model files (OBJ tiles...) or one model file")
     ap.add_argument("-o", "--output", required=True, help="output folder (same layout as the input)")
     ap.add_argument("-c", "--config", required=True, help="pipeline configuration (JSON)")
     ap.add_argument("--set", action="append", default=[], metavar="K=V", help="option override (as texdefrag run)")
