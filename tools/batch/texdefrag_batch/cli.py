@@ -226,8 +226,21 @@ class Batch:
             shutil.rmtree(res["staging"], ignore_errors=True)
 
     # -- end ---------------------------------------------------------------------------------
+    def copy_through(self):
+        """The production's pass-through files (copies of the task list); an error fails the batch."""
+        ok = True
+        for c in self.production.get("copies", []):
+            try:
+                if commit_mod.copy_through(c["input"], self.out, c["output"]):
+                    self.counts["copied"] = self.counts.get("copied", 0) + 1
+            except OSError as e:
+                err(str(e))
+                ok = False
+        return ok
+
     def finish(self, started):
         commit_mod.clear_staging(self.staging_root)
+        copied = self.copy_through()
         tasks = {tid: r for tid, r in self.journal.tasks().items() if tid in self.tasks}
         finished = sum(1 for r in tasks.values() if r["status"] == "finished")
         failed = len(self.tasks) - finished
@@ -250,7 +263,7 @@ class Batch:
                 + f"; summary {os.path.join(self.state, 'summary.json')}")
             for f in s["failures"][:20]:
                 err(f"  failed: {f['id']}: {f['error']}")
-        return 0 if failed == 0 else 1
+        return 0 if failed == 0 and copied else 1
 
 
 def main(argv=None):

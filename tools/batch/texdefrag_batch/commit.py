@@ -72,6 +72,43 @@ def _fsync_dir(path):
         os.close(fd)
 
 
+def same_file(a, b):
+    """True when b exists with a's size and bytes."""
+    try:
+        if os.path.getsize(a) != os.path.getsize(b):
+            return False
+    except OSError:
+        return False
+    with open(a, "rb") as fa, open(b, "rb") as fb:
+        while True:
+            x, y = fa.read(1 << 20), fb.read(1 << 20)
+            if x != y:
+                return False
+            if not x:
+                return True
+
+
+def copy_through(src, output_root, rel):
+    """Copies a pass-through file (a production's metadata.xml) to output_root/rel under a temporary
+    name, then renames it; nothing when the copy is already identical. Returns True when copied.
+    Raises OSError naming both files."""
+    dst = os.path.join(output_root, rel)
+    if same_file(src, dst):
+        return False
+    os.makedirs(os.path.dirname(dst), exist_ok=True)
+    tmp = os.path.join(os.path.dirname(dst), f".{os.path.basename(dst)}.texdefrag-batch.tmp")
+    try:
+        shutil.copyfile(src, tmp)
+        os.replace(tmp, dst)
+    except OSError as e:
+        try:
+            os.remove(tmp)
+        except OSError:
+            pass
+        raise OSError(f"cannot copy {src} to {dst}: {e.strerror or e}") from None
+    return True
+
+
 def clear_staging(staging_root):
     """Removes every staging folder (the start and end of a batch: no attempt is running)."""
     if os.path.isdir(staging_root):

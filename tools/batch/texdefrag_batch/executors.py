@@ -124,7 +124,14 @@ class DaskExecutor:
                      "staging": spec["staging"]}
 
     def close(self, cancel=False):
-        if cancel:
-            for _, fut, _ in self.pending.values():
-                fut.cancel()
-        self.client.close()
+        """Disconnects; with cancel, first asks the scheduler to drop this batch's attempts. Never
+        raises (it runs on the way out of an interrupt or a lost scheduler)."""
+        try:
+            if cancel and self.pending:
+                self.client.cancel([fut for _, fut, _ in self.pending.values()], force=True)
+        except Exception:  # noqa: BLE001
+            pass
+        try:
+            self.client.close(timeout=10)
+        except Exception:  # noqa: BLE001
+            pass
