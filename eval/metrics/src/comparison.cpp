@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <limits>
 #include <stdexcept>
 
@@ -101,30 +102,50 @@ void check_images(const TexturedMesh& mesh, const std::vector<Image>& pages, con
 DistortionMetrics uv_distortion(const TexturedMesh& in, const TexturedMesh& out, const FaceMatch& match) {
   // note: an output chart laid out as a mirror image of its input (with its texture mirrored
   // likewise, as MeshLab-written M-method outputs are, everywhere) shows the same texture on the
-  // surface: its reflection is a convention, not distortion. A chart whose faces reverse
-  // orientation over most of its input UV area is measured mirrored (y -> -y); its faces whose
-  // orientation still disagrees are the flipped ones.
+  // surface: its reflection is a convention, not distortion. The same holds for one input chart
+  // welded mirrored into an output chart (texdefrag's mergers do that when the smaller chart is a
+  // mirror image of its neighbour). So faces are grouped by (output chart, input chart); a group
+  // whose faces reverse orientation over most of its input UV area while its output triangles turn
+  // like the rest of its output chart's (area-weighted majority) is measured mirrored (y -> -y);
+  // its faces whose orientation still disagrees, and the faces of a group turning against its
+  // chart (a folded piece), are the flipped ones. core/distortion.h applies the same rule.
   const Topology otopo = build_topology(out);
   const ChartSet ocharts = build_charts(out, otopo);
-  std::vector<double> orientation(static_cast<size_t>(ocharts.atlas.num_charts), 0.0);
+  const Topology itopo = build_topology(in);
+  const ChartSet icharts = build_charts(in, itopo);
+  std::map<std::pair<int, int>, std::pair<double, double>> group_sign;
+  std::vector<double> chart_turn(static_cast<size_t>(ocharts.atlas.num_charts), 0.0);
+  auto group = [&](size_t f, int fo) {
+    return std::make_pair(ocharts.atlas.face_chart[static_cast<size_t>(fo)], icharts.atlas.face_chart[f]);
+  };
   for (size_t f = 0; f < in.faces.size(); ++f) {
     Vec2 o[3], n[3];
     int fo;
     Eigen::Matrix2d J;
     if (!matched_uvs(in, out, match, f, o, n, fo) || !uv_jacobian(o, n, J)) continue;
-    const double det = J.determinant();
-    orientation[static_cast<size_t>(ocharts.atlas.face_chart[static_cast<size_t>(fo)])] +=
-        uv_area(o) * ((det > 0) - (det < 0));
+    const double det = J.determinant(), w = uv_area(o);
+    const double turn = (n[1] - n[0]).x() * (n[2] - n[0]).y() - (n[1] - n[0]).y() * (n[2] - n[0]).x();
+    auto& g = group_sign[group(f, fo)];
+    g.first += w * ((det > 0) - (det < 0));
+    g.second += w * ((turn > 0) - (turn < 0));
+    chart_turn[static_cast<size_t>(ocharts.atlas.face_chart[static_cast<size_t>(fo)])] += w * ((turn > 0) - (turn < 0));
   }
+  auto mirrored_group = [&](size_t f, int fo) {
+    auto it = group_sign.find(group(f, fo));
+    if (it == group_sign.end() || !(it->second.first < 0)) return false;
+    const double ct = chart_turn[static_cast<size_t>(ocharts.atlas.face_chart[static_cast<size_t>(fo)])];
+    return (it->second.second > 0) == (ct > 0) && it->second.second != 0 && ct != 0;
+  };
   DistortionMetrics d;
-  for (double x : orientation) d.mirrored_charts += x < 0;
+  std::vector<char> chart_mirrored(chart_turn.size(), 0);
   double wsd = 0;
   for (size_t f = 0; f < in.faces.size(); ++f) {
     Vec2 o[3], n[3];
     int fo;
     if (!matched_uvs(in, out, match, f, o, n, fo)) continue;
     ++d.faces;
-    if (orientation[static_cast<size_t>(ocharts.atlas.face_chart[static_cast<size_t>(fo)])] < 0) {
+    if (mirrored_group(f, fo)) {
+      chart_mirrored[static_cast<size_t>(ocharts.atlas.face_chart[static_cast<size_t>(fo)])] = 1;
       ++d.mirrored_faces;
       for (Vec2& p : n) p.y() = -p.y();
     }
@@ -145,6 +166,7 @@ DistortionMetrics uv_distortion(const TexturedMesh& in, const TexturedMesh& out,
   }
   if (d.weight > 0) d.arap /= d.weight;
   if (wsd > 0) d.symmetric_dirichlet /= wsd;
+  for (char m : chart_mirrored) d.mirrored_charts += m;
   return d;
 }
 

@@ -107,6 +107,7 @@ struct Move {
   int big = -1, small = -1;                ///< the chart kept and the chart absorbed (smaller UV area)
   std::vector<std::pair<int, int>> pairs;  ///< (bigger chart's wedge, smaller chart's wedge) at seam vertices
   std::vector<int> seam_edges;             ///< the seam's topology edges
+  bool mirrored = false;                   ///< align: the smaller chart was reflected (improper motion)
   std::vector<int> reps;                   ///< weld: one representative wedge per welded vertex
   double dmax = 0;                         ///< weld: largest weld displacement
   std::vector<int> free_w;                 ///< free region: free wedges, nearest first
@@ -137,7 +138,8 @@ class Engine {
   /// Starts a move: the bigger chart (by input UV area) keeps its id; the seam's wedge pairs.
   Move begin_move(int a, int b);
   /// Step 1: least-squares rigid motion of the smaller chart onto the bigger over the seam's wedge
-  /// pairs (never a reflection).
+  /// pairs; an improper one (with a reflection) when the smaller chart is mirrored relative to the
+  /// bigger (seam_mirrored), and then its faces' rest shapes are mirrored too (face_mirrored).
   void align(Move& mv);
   /// Step 2: welds each group of paired wedges at its mean (one wedge of the bigger chart), repoints
   /// the corners and gives the smaller chart's faces the bigger chart's id.
@@ -153,10 +155,16 @@ class Engine {
   const char* check(Move& mv);
   /// Step 6: makes an accepted move permanent (distortion sums, grids, boundary, chart data, adjacency).
   void commit(Move& mv);
-  /// Restores the atlas exactly as it was before the move (positions, corners, charts).
+  /// Restores the atlas exactly as it was before the move (positions, corners, charts, handedness).
   void rollback();
 
+  /// Whether chart `small` is mirrored relative to chart `big`: along most of their seam edges the
+  /// two faces would lie on the same side of the welded edge after any proper rigid motion (their UV
+  /// triangles turn the opposite way for consistently wound 3D faces).
+  bool seam_mirrored(int big, int small);
   const ChartInfo& chart_info(int c) const { return charts_[static_cast<size_t>(c)]; }
+  /// True when face f's UV triangle is laid out mirrored relative to its input UV triangle.
+  bool face_mirrored(int f) const { return fmirror_[static_cast<size_t>(f)] != 0; }
   /// Global area-weighted ARAP distortion of the current atlas (maintained incrementally).
   double global_distortion() const { return weight_sum_ > 0 ? err_sum_ / weight_sum_ : 0; }
 
@@ -232,7 +240,8 @@ class Engine {
   MergeReport rep_;
 
   std::vector<int> vf_off_, vf_;       ///< welded vertex -> textured faces (CSR)
-  std::vector<Mat2> rest_inv_;         ///< inverse rest edge matrix (input UV triangle, texels)
+  std::vector<Mat2> rest_inv_;         ///< inverse rest edge matrix (input UV triangle, texels; mirrored y -> -y when fmirror_)
+  std::vector<char> fmirror_;          ///< face laid out mirrored relative to its input UV triangle
   std::vector<double> rest_w_;         ///< input UV area (0: no energy)
   std::vector<double> err_w_;          ///< weight * ARAP error, per face, current atlas
   double err_sum_ = 0, weight_sum_ = 0;
@@ -293,6 +302,9 @@ class Engine {
   std::vector<std::pair<int, Vec2>> saved_uv_;
   std::vector<std::pair<int, std::array<int, 3>>> saved_fw_;
   int saved_small_ = -1;
+  bool saved_mirrored_ = false;  ///< the move reflected the smaller chart (its faces' handedness flipped)
+  /// Flips the handedness of `faces`: rest shapes mirrored y -> -y (rest_inv_ times diag(1, -1)).
+  void mirror_faces(const std::vector<int>& faces);
   void save_uv(int w) {
     if (wstamp_[static_cast<size_t>(w)] == epoch_) return;
     wstamp_[static_cast<size_t>(w)] = epoch_;

@@ -49,6 +49,7 @@ Move Engine::begin_move(int a, int b) {
   mv.big = C(a).uv_area >= C(b).uv_area ? a : b;
   mv.small = mv.big == a ? b : a;
   saved_small_ = mv.small;
+  saved_mirrored_ = false;
   pair_points(mv.big, mv.small, mv.pairs);
   mv.seam_edges = C(mv.big).adj[mv.small];
   return mv;
@@ -60,7 +61,14 @@ void Engine::align(Move& mv) {
     q.push_back(uv(wb));
     p.push_back(uv(ws));
   }
-  const Rigid2 m = fit_rigid(p, q);
+  mv.mirrored = seam_mirrored(mv.big, mv.small);
+  const Rigid2 m = mv.mirrored ? fit_improper(p, q) : fit_rigid(p, q);
+  if (mv.mirrored) {
+    // The reflected faces keep their input shape as a mirror image: no face is re-oriented, their
+    // distortion and flip tests measure against the mirrored input triangle.
+    mirror_faces(C(mv.small).faces);
+    saved_mirrored_ = true;
+  }
   for (int f : C(mv.small).faces)
     for (int k = 0; k < 3; ++k) {
       const int w = wedge(f, k);
@@ -155,6 +163,31 @@ bool Engine::seam_edge_folded(int ei) const {
   }
   // Traversed a->b, face 0's third corner is on side sign(s0); face 1's on side sign(s1).
   return !(s[0] * s[1] < 0);
+}
+
+bool Engine::seam_mirrored(int big, int small) {
+  // seam_edge_folded compares the signs of the two faces' own UV turns along the edge, which no
+  // proper rigid motion changes: evaluated before the alignment it tells whether one is needed.
+  // Edges with a face of zero UV area (no turn) do not vote.
+  const std::vector<int>& edges = C(big).adj[small];
+  size_t nfold = 0, nvote = 0;
+  for (int ei : edges) {
+    const Edge& e = topo_.edges[static_cast<size_t>(ei)];
+    bool decisive = true;
+    for (int i = 0; i < 2; ++i)
+      decisive = decisive && rest_w_[static_cast<size_t>(topo_.edge_faces[static_cast<size_t>(e.first_incidence + i)].face)] > 0;
+    if (!decisive) continue;
+    ++nvote;
+    nfold += seam_edge_folded(ei) ? 1 : 0;
+  }
+  return 2 * nfold > nvote;
+}
+
+void Engine::mirror_faces(const std::vector<int>& faces) {
+  for (int f : faces) {
+    fmirror_[static_cast<size_t>(f)] ^= 1;
+    rest_inv_[static_cast<size_t>(f)].col(1) = -rest_inv_[static_cast<size_t>(f)].col(1);
+  }
 }
 
 bool Engine::seam_mostly_folded(const Move& mv) const {
@@ -457,6 +490,7 @@ const char* Engine::check_triangles(const Move& mv) {
 }
 
 void Engine::commit(Move& mv) {
+  if (mv.mirrored) ++rep_.accepted_mirrored;
   for (size_t i = 0; i < mv.changed.size(); ++i) err_w_[static_cast<size_t>(mv.changed[i])] = mv.new_err[i];
   err_sum_ = mv.new_sum;
   commit_grids(mv);
@@ -553,6 +587,8 @@ void Engine::rollback() {
   for (auto it = saved_fw_.rbegin(); it != saved_fw_.rend(); ++it)
     at_.face_wedge[static_cast<size_t>(it->first)] = it->second;
   for (int f : C(saved_small_).faces) at_.face_chart[static_cast<size_t>(f)] = saved_small_;
+  if (saved_mirrored_) mirror_faces(C(saved_small_).faces);
+  saved_mirrored_ = false;
 }
 
 }  // namespace texdefrag::merge::detail

@@ -74,6 +74,7 @@ void Engine::setup_rest_shapes() {
       }
   // Rest shapes.
   rest_inv_.assign(nf, Mat2::Identity());
+  fmirror_.assign(nf, 0);
   rest_w_.assign(nf, 0);
   err_w_.assign(nf, 0);
   for (size_t f = 0; f < nf; ++f) {
@@ -343,7 +344,7 @@ double Engine::score(int a, int b, int& refusal) {
     q.push_back(uv(wb));
     p.push_back(uv(ws));
   }
-  const Rigid2 m = fit_rigid(p, q);
+  const Rigid2 m = seam_mirrored(big, small) ? fit_improper(p, q) : fit_rigid(p, q);
   double err = 0;
   for (size_t i = 0; i < p.size(); ++i) err += (m(p[i]) - q[i]).norm();
   err /= static_cast<double>(std::max<size_t>(1, p.size()));
@@ -450,7 +451,8 @@ MergeReport Engine::run(const Progress& progress) {
   if (progress) progress(1.0);
   rep_.mean_free_vertices = free_count_ ? free_total_ / static_cast<double>(free_count_) : 0;
   rep_.charts_out = static_cast<size_t>(at_.compact());
-  const DistortionSummary ds = atlas_distortion(mesh_, at_);
+  const DistortionSummary ds = atlas_distortion(mesh_, at_, build_charts(mesh_, topo_).atlas.face_chart);
+  for (char m : fmirror_) rep_.mirrored_faces_out += m != 0;
   rep_.distortion_out = ds.arap;
   rep_.flipped_out = ds.flipped;
   return rep_;

@@ -32,6 +32,14 @@ Rigid2 fit_rigid(const std::vector<Vector2d>& p, const std::vector<Vector2d>& q)
   return m;
 }
 
+Rigid2 fit_improper(const std::vector<Vector2d>& p, const std::vector<Vector2d>& q) {
+  std::vector<Vector2d> mp(p);
+  for (Vector2d& x : mp) x.y() = -x.y();
+  Rigid2 m = fit_rigid(mp, q);
+  m.R.col(1) = -m.R.col(1);  // R S with S = diag(1, -1)
+  return m;
+}
+
 bool segments_cross(const Vector2d& a, const Vector2d& b, const Vector2d& c, const Vector2d& d) {
   const double o1 = orient2d(a, b, c), o2 = orient2d(a, b, d);
   const double o3 = orient2d(c, d, a), o4 = orient2d(c, d, b);

@@ -8,7 +8,8 @@
 
 namespace texdefrag::merge {
 
-/// A rigid 2D motion x -> R x + t (R a rotation, det +1).
+/// A rigid 2D motion x -> R x + t (R orthogonal: a rotation, det +1, or for fit_improper a
+/// reflection, det -1).
 struct Rigid2 {
   Eigen::Matrix2d R = Eigen::Matrix2d::Identity();
   Eigen::Vector2d t = Eigen::Vector2d::Zero();
@@ -21,6 +22,12 @@ struct Rigid2 {
 /// @param p  source points (any count >= 1; with one point R is the identity)
 /// @param q  target points, same count as p
 Rigid2 fit_rigid(const std::vector<Eigen::Vector2d>& p, const std::vector<Eigen::Vector2d>& q);
+
+/// Least-squares improper rigid motion (a reflection, then rotation + translation; det R = -1)
+/// taking p[i] to q[i]: fit_rigid of the points mirrored y -> -y, composed with that mirror.
+/// @param p  source points (any count >= 1)
+/// @param q  target points, same count as p
+Rigid2 fit_improper(const std::vector<Eigen::Vector2d>& p, const std::vector<Eigen::Vector2d>& q);
 
 /// Twice the signed area of (a, b, c): > 0 when counter-clockwise.
 inline double orient2d(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c) {

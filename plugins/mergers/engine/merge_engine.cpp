@@ -92,6 +92,8 @@ json MergeReport::to_json() const {
   j["merges_accepted"] = accepted;
   j["charts_after_first_pass"] = charts_after_first_pass;
   j["merges_accepted_second_pass"] = accepted_second_pass;
+  j["merges_mirrored"] = accepted_mirrored;
+  j["mirrored_faces_out"] = mirrored_faces_out;
   j["distortion_after_first_pass"] = distortion_after_first_pass;
   json rej = json::object();
   size_t total = 0;

@@ -75,6 +75,8 @@ struct MergeReport {
   size_t attempted = 0, accepted = 0;
   size_t charts_after_first_pass = 0;  ///< live charts when the region-constrained queue emptied
   size_t accepted_second_pass = 0;     ///< merges accepted by the cross-region pass
+  size_t accepted_mirrored = 0;        ///< accepted merges that reflected the smaller chart
+  size_t mirrored_faces_out = 0;       ///< faces laid out as a mirror image of their input UV triangle
   double distortion_after_first_pass = 0;  ///< global ARAP distortion at that moment (incremental)
   std::map<std::string, size_t> rejected;  ///< by reason
   double distortion_in = 0;           ///< global ARAP distortion of the atlas given to the engine

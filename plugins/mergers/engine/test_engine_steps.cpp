@@ -4,6 +4,9 @@
 #include "engine_internal.h"
 #include "test_support.h"
 
+#include "texdefrag/core/distortion.h"
+#include "texdefrag/texture/resample.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -153,6 +156,115 @@ TEST(MergeEngineSteps, CheckNamesTheFirstFailingTest) {
   std::string reason;
   EXPECT_FALSE(e.try_merge(run.ctx.atlas.face_chart[0], run.ctx.atlas.face_chart[2], reason));
   EXPECT_EQ(reason, "flip");
+}
+
+
+double signed_area(const Atlas& at, int f) {
+  const auto& w = at.face_wedge[static_cast<size_t>(f)];
+  const Vec2 a = at.wedge_uv[static_cast<size_t>(w[0])], b = at.wedge_uv[static_cast<size_t>(w[1])],
+             c = at.wedge_uv[static_cast<size_t>(w[2])];
+  return 0.5 * ((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
+}
+
+TEST(MergeEngineSteps, MirroredSquareIsWeldedWithAReflection) {
+  // The right square's texels are a mirror image (its UV triangles turn clockwise, the left one's
+  // counter-clockwise, for the same 3D winding): a proper motion would fold the seam.
+  Steps s(two_squares(true));
+  EXPECT_LT(signed_area(s.run.ctx.atlas, 2), 0);
+  EXPECT_GT(signed_area(s.run.ctx.atlas, 0), 0);
+  EXPECT_TRUE(s.engine.seam_mirrored(s.left, s.right));
+  detail::Move mv = s.engine.begin_move(s.left, s.right);
+  s.engine.align(mv);
+  EXPECT_TRUE(mv.mirrored);
+  // Reflected onto the left square's right side: face 2 = (1,0), (2,0), (2,1) at (24,8), (40,8), (40,24).
+  EXPECT_NEAR((s.uv(2, 0) - Vec2(24, 8)).norm(), 0, 1e-9);
+  EXPECT_NEAR((s.uv(2, 1) - Vec2(40, 8)).norm(), 0, 1e-9);
+  EXPECT_NEAR((s.uv(2, 2) - Vec2(40, 24)).norm(), 0, 1e-9);
+  EXPECT_TRUE(s.engine.face_mirrored(2));
+  EXPECT_TRUE(s.engine.face_mirrored(3));
+  EXPECT_FALSE(s.engine.face_mirrored(0));
+  s.engine.weld(mv);
+  EXPECT_FALSE(s.engine.seam_mostly_folded(mv));
+  s.engine.free_region(mv);
+  s.engine.solve(mv);
+  EXPECT_EQ(s.engine.check(mv), nullptr);
+  s.engine.commit(mv);
+  EXPECT_LT(s.engine.global_distortion(), 1e-18);
+  // Every face keeps its UV area (128 texels^2) and now turns like its neighbours.
+  for (int f = 0; f < 4; ++f) EXPECT_NEAR(signed_area(s.run.ctx.atlas, f), 128, 1e-9) << f;
+}
+
+TEST(MergeEngineSteps, MirroredMergeRollsBackTheHandedness) {
+  MergeOptions opt;
+  opt.global_bound = 1e-4;
+  Steps s(two_squares(true, 1.5), opt);  // mirrored and 1.5 x denser: rejected on distortion
+  const Atlas before = s.run.ctx.atlas;
+  std::string reason;
+  EXPECT_FALSE(s.engine.try_merge(s.left, s.right, reason));
+  EXPECT_EQ(reason, "global_distortion");
+  EXPECT_EQ(s.run.ctx.atlas.wedge_uv, before.wedge_uv);
+  EXPECT_EQ(s.run.ctx.atlas.face_wedge, before.face_wedge);
+  for (int f = 0; f < 4; ++f) EXPECT_FALSE(s.engine.face_mirrored(f)) << f;
+}
+
+TEST(MergeEngineSteps, MirroredChartsMergeIntoOneWithoutFlipsAndTheTextureIsReproduced) {
+  test::Run run(two_squares(true));
+  ArapSolver solver;
+  const MergeReport r =
+      run_merges(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{}, solver, {});
+  EXPECT_EQ(r.charts_out, 1u);
+  EXPECT_EQ(r.accepted_mirrored, 1u);
+  EXPECT_EQ(r.mirrored_faces_out, 2u);
+  EXPECT_EQ(r.rejected.count("orientation"), 0u);
+  EXPECT_EQ(r.flipped_out, 0u);
+  EXPECT_LT(r.distortion_out, 1e-12);
+  const Atlas& at = run.ctx.atlas;
+  // The core measure: the right square is a mirrored group, no face flipped, no distortion.
+  const DistortionSummary d = atlas_distortion(run.mesh, at, run.charts.atlas.face_chart);
+  EXPECT_EQ(d.flipped, 0u);
+  EXPECT_EQ(d.mirrored, 2u);
+  EXPECT_LT(d.arap, 1e-12);
+  for (int f = 0; f < 4; ++f) EXPECT_NEAR(std::abs(signed_area(at, f)), 128, 1e-9) << f;
+
+  // Texture: an input page linear in the texel position (y up), value = x + 2 y, read through each
+  // face's own affine map; every output texel well inside a face shows the input's value there.
+  auto value = [](const Vec2& p) { return p.x() + 2 * p.y(); };
+  Image in;
+  in.width = in.height = 64;
+  in.channels = 1;
+  in.pixels.resize(64 * 64);
+  for (int row = 0; row < 64; ++row)
+    for (int x = 0; x < 64; ++x) *in.at(x, row) = static_cast<uint8_t>(std::lround(value(Vec2(x + 0.5, 63.5 - row))));
+  Layout layout;
+  layout.pages.push_back({64, 64});
+  layout.chart_page.assign(static_cast<size_t>(at.num_charts), 0);
+  layout.wedge_uv = at.wedge_uv;  // the merged chart lies in [8, 40] x [8, 24]
+  ResampleOptions ro;
+  ro.fit = TexelFit::Sample;
+  const std::vector<Image> out = resample_atlas(run.mesh, {in}, at, layout, ro);
+  ASSERT_EQ(out.size(), 1u);
+  size_t checked = 0;
+  for (int f = 0; f < 4; ++f) {
+    Vec2 o[3], n[3];
+    for (int k = 0; k < 3; ++k) {
+      o[k] = run.mesh.corner_texel(static_cast<size_t>(f), k);
+      n[k] = at.wedge_uv[static_cast<size_t>(at.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
+    }
+    const double det = (n[1] - n[0]).x() * (n[2] - n[0]).y() - (n[1] - n[0]).y() * (n[2] - n[0]).x();
+    for (int row = 0; row < 64; ++row)
+      for (int x = 0; x < 64; ++x) {
+        const Vec2 c(x + 0.5, 63.5 - row);
+        // Barycentric coordinates of the texel centre in the output triangle.
+        const double b1 = ((c - n[0]).x() * (n[2] - n[0]).y() - (c - n[0]).y() * (n[2] - n[0]).x()) / det;
+        const double b2 = ((n[1] - n[0]).x() * (c - n[0]).y() - (n[1] - n[0]).y() * (c - n[0]).x()) / det;
+        const double b0 = 1 - b1 - b2;
+        if (b0 < 0.15 || b1 < 0.15 || b2 < 0.15) continue;
+        const Vec2 p = b0 * o[0] + b1 * o[1] + b2 * o[2];  // its pre-image in the input page
+        EXPECT_NEAR(*out[0].at(x, row), value(p), 1.01) << "face " << f << " texel " << x << "," << row;
+        ++checked;
+      }
+  }
+  EXPECT_GT(checked, 100u);
 }
 
 }  // namespace

@@ -28,12 +28,26 @@ double symmetric_dirichlet(const Eigen::Matrix2d& J);
 struct DistortionSummary {
   double arap = 0;                 ///< area-weighted mean ARAP error
   double symmetric_dirichlet = 0;  ///< area-weighted mean over non-flipped faces
-  size_t flipped = 0;              ///< faces whose orientation the map reverses or collapses
+  size_t flipped = 0;              ///< faces whose orientation the map reverses or collapses (within their group)
+  size_t mirrored = 0;             ///< faces measured through the mirror (their group is a mirror image)
   size_t zero_area_input = 0;      ///< faces with zero original UV area (weight 0)
   double weight = 0;               ///< total original UV area (texels^2)
 };
 
 /// Distortion of atlas UVs (texels) against the mesh's input UVs, over textured faces.
+/// A group is the faces of one input chart inside one output chart. A group laid out as a mirror
+/// image of its input over most of its input UV area (area-weighted sign of det J negative) whose
+/// output UV triangles turn like the rest of its output chart's (area-weighted majority) is a
+/// reflected, consistently welded piece (mergers weld a chart mirrored relative to its neighbour
+/// that way; it shows the same texture once resampled): it is measured through the mirror
+/// y -> -y, and only its faces whose orientation still disagrees count as flipped. A group that
+/// turns against its chart (a folded piece) is measured as is: its faces are flipped. Without
+/// mirrored groups this is the plain per-face measure.
+/// @param input_face_chart  input chart per face (ChartSet::atlas.face_chart of the input), or
+///                          empty: computed from the mesh (build_topology + build_charts)
+DistortionSummary atlas_distortion(const TexturedMesh& mesh, const Atlas& atlas,
+                                   const std::vector<int>& input_face_chart);
+/// The same with the input charts computed from the mesh.
 DistortionSummary atlas_distortion(const TexturedMesh& mesh, const Atlas& atlas);
 
 }  // namespace texdefrag
