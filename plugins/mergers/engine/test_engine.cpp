@@ -38,6 +38,20 @@ TEST(MergeEngine, RigidFitNeverReflects) {
   EXPECT_NEAR(m.R.determinant(), 1.0, 1e-12);
 }
 
+TEST(MergeEngine, ImproperFitRecoversAReflection) {
+  // q = mirror of p across the line at 30 degrees, then shifted: det R = -1, exact recovery.
+  const double th = M_PI / 3;  // reflection across angle th/2 = [[cos th, sin th], [sin th, -cos th]]
+  Rigid2 truth;
+  truth.R << std::cos(th), std::sin(th), std::sin(th), -std::cos(th);
+  truth.t = Vec2(-1, 5);
+  std::vector<Vec2> p = {{0, 0}, {2, 0}, {0, 1}, {3, 4}}, q;
+  for (const Vec2& x : p) q.push_back(truth(x));
+  const Rigid2 m = fit_improper(p, q);
+  EXPECT_NEAR(m.R.determinant(), -1.0, 1e-12);
+  EXPECT_NEAR((m.R - truth.R).norm(), 0, 1e-12);
+  EXPECT_NEAR((m.t - truth.t).norm(), 0, 1e-12);
+}
+
 TEST(MergeEngine, RigidFitSinglePointIsTranslation) {
   const Rigid2 m = fit_rigid({{1, 1}}, {{4, 5}});
   EXPECT_NEAR((m.R - Eigen::Matrix2d::Identity()).norm(), 0, 1e-15);
