@@ -7,7 +7,8 @@
 //
 // CACHE.atlas is written when missing (detector + merger of CONFIG) and read otherwise. Each
 // PACKER (e.g. packers.square_tetris:gutter=4,width_trials=8) is run on the cached atlas; one line
-// per packer: model, packer, charts, efficiency, output MP, input MP, wall ms, CPU ms.
+// per packer: model, packer, charts, efficiency, output MP, input MP, wall ms, CPU ms (square_tetris
+// with an outline tail adds: UV area / outline texels, outline / dilated outline, dilated / page).
 #include "texdefrag/core/charts.h"
 #include "texdefrag/core/topology.h"
 #include "texdefrag/io/obj.h"
@@ -141,8 +142,15 @@ int main(int argc, char** argv) {
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       double mp = 0;
       for (const auto& ps : pc.layout.pages) mp += static_cast<double>(ps.width) * ps.height / 1e6;
-      std::printf("%s\t%s\t%d\t%.3f\t%.3f\t%.2f\t%.0f\t%.0f\n", model.c_str(), spec.c_str(), ctx.atlas.num_charts,
+      std::printf("%s\t%s\t%d\t%.3f\t%.3f\t%.2f\t%.0f\t%.0f", model.c_str(), spec.c_str(), ctx.atlas.num_charts,
                   rep.value("packing_efficiency", 0.0), mp, in_mp, ms, cpu_ms);
+      // square_tetris: UV area / outline texels / dilated outline texels (where the page goes)
+      if (rep.contains("outline_texels"))
+        std::printf("\tuv/outline %.3f\toutline/padded %.3f\tpadded/page %.3f",
+                    rep.value("chart_uv_area", 0.0) / rep["outline_texels"].get<double>(),
+                    rep["outline_texels"].get<double>() / rep["padded_outline_texels"].get<double>(),
+                    rep["padded_outline_texels"].get<double>() / (mp * 1e6));
+      std::printf("\n");
     }
   } catch (const std::exception& e) {
     std::cerr << e.what() << "\n";

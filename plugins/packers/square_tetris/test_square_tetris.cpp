@@ -6,6 +6,7 @@
 #include "texdefrag/stage/registry.h"
 
 #include <algorithm>
+#include <cstdio>
 
 #include <gtest/gtest.h>
 
@@ -143,4 +144,22 @@ TEST(PackersSquareTetris, OutlineTailIsSkippedBeyondTailMaxCharts) {
   auto kept = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}, {"tail_side", 200}, {"tail_max_charts", 2}});
   EXPECT_EQ(kept->report.at("outline_drops").get<int>(), 2);
   EXPECT_FALSE(kept->report.at("outline_tail_skipped").get<bool>());
+}
+
+TEST(PackersSquareTetris, BigIrregularChartsPackedByOutline) {
+  // Four L-shaped charts of 600 x 600 texels (box over tail_side^2 = 512^2, outline filling 0.30
+  // of the box): as rectangles each takes a whole box; by outline (rect_min_fill 0.75, default)
+  // they nest into each other's empty corners.
+  std::vector<std::vector<Vec2>> polys;
+  for (int i = 0; i < 4; ++i)
+    polys.push_back({{0, 0}, {600, 0}, {600, 100}, {100, 100}, {100, 600}, {0, 600}});
+  auto outline = run_packer(kName, polygon_mesh(polys, 1024), json::object());
+  auto rects = run_packer(kName, polygon_mesh(polys, 1024), {{"rect_min_fill", 0.0}});
+  expect_valid_layout(*outline, 4);
+  expect_valid_layout(*rects, 4);
+  EXPECT_EQ(outline->report.at("tail_charts").get<int>(), 4);
+  EXPECT_EQ(rects->report.at("tail_charts").get<int>(), 0);
+  const double e_outline = layout_efficiency(*outline), e_rects = layout_efficiency(*rects);
+  std::printf("4 L-shaped charts: efficiency %.3f by outline, %.3f as rectangles\n", e_outline, e_rects);
+  EXPECT_GT(e_outline, 1.3 * e_rects);
 }
