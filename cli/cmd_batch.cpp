@@ -58,6 +58,17 @@ bool is_under(const fs::path& path, const fs::path& dir) {
 /// One task: the input file, its id (path relative to the production root without extension,
 /// '/'-separated, unique) and the output folder relative to the output root (the input's folder
 /// relative to the production root, so the output has the production's layout).
+/// The level of a tile file named the ContextCapture way (`Tile_+000_+016_L19_0uuuu1.osgb` -> 19);
+/// null when the name has no `_L<digits>` followed by '_' or the end of the stem.
+json level_of(const std::string& stem) {
+  for (size_t i = stem.find("_L"); i != std::string::npos; i = stem.find("_L", i + 1)) {
+    size_t j = i + 2;
+    while (j < stem.size() && std::isdigit(static_cast<unsigned char>(stem[j]))) ++j;
+    if (j > i + 2 && j - i - 2 < 4 && (j == stem.size() || stem[j] == '_')) return std::stoi(stem.substr(i + 2, j - i - 2));
+  }
+  return nullptr;
+}
+
 json make_task(const fs::path& root, const fs::path& file) {
   const fs::path rel = file.lexically_relative(root);
   fs::path id = rel;
@@ -67,7 +78,7 @@ json make_task(const fs::path& root, const fs::path& file) {
           {"input", normal_absolute(file).string()},
           {"output_dir", dir.empty() ? "." : dir},
           {"tile", dir.empty() ? id.generic_string() : dir},
-          {"level", nullptr}};
+          {"level", level_of(file.stem().string())}};
 }
 
 /// Every model file under `root` that a built-in format reads (recursively, sorted by path), except
@@ -99,7 +110,7 @@ json folder_tasks(const fs::path& root, const fs::path& exclude) {
 }  // namespace
 
 /// The task list of a production (docs/batch.md, "Tasks"): {"input", "root", "kind", "tasks",
-/// "copies"}. input: a folder (kind "folder": every model file under it, see folder_tasks) or one
+/// "copies"} (copies: files that pass through unchanged, {"input": absolute, "output": relative}). input: a folder (kind "folder": every model file under it, see folder_tasks) or one
 /// model file (kind "file"); exclude: a folder never searched (the batch output), may be "".
 /// Throws std::runtime_error naming the input when it is missing, unreadable or holds no model.
 /// Production formats (OSGB metadata.xml pyramids, 3D Tiles tilesets) add their branch here.
@@ -121,6 +132,9 @@ json production_tasks(const std::string& input, const std::string& exclude) {
   out["kind"] = "folder";
   out["root"] = out["input"];
   out["tasks"] = folder_tasks(in, exclude.empty() ? fs::path() : fs::path(exclude));
+  // A ContextCapture production's metadata.xml (SRS, origin) passes through unchanged.
+  if (fs::is_regular_file(in / "metadata.xml"))
+    out["copies"].push_back({{"input", normal_absolute(in / "metadata.xml").string()}, {"output", "metadata.xml"}});
   if (out["tasks"].empty())
     throw std::runtime_error(input + ": no model file found (formats: " + format_names() +
                              "; searched recursively, hidden folders and texdefrag outputs skipped)");

@@ -56,6 +56,26 @@ class BatchTest(unittest.TestCase):
         self.assertEqual([x["id"] for x in t["tasks"]], [f"b000{i}/b000{i}" for i in range(3)])
         self.assertEqual(t["tasks"][0]["output_dir"], "b0000")
         self.assertEqual(t["tasks"][0]["input"], os.path.join(inp, "b0000", "b0000.obj"))
+        # ContextCapture naming: the level from the file name; a root metadata.xml passes through.
+        prod = os.path.join(self.work, "tasks", "cc")
+        os.makedirs(os.path.join(prod, "Tile_+000_+001"))
+        for f in os.listdir(os.path.join(inp, "b0000")):
+            dst = "Tile_+000_+001_L17_0.obj" if f.endswith(".obj") else f
+            shutil.copy(os.path.join(inp, "b0000", f), os.path.join(prod, "Tile_+000_+001", dst))
+        with open(os.path.join(prod, "metadata.xml"), "w") as f:
+            f.write("<ModelMetadata version=\"1\"><SRS>EPSG:4326</SRS></ModelMetadata>\n")
+        t = json.loads(subprocess.run([common.EXE, "tasks", prod, "--json"], capture_output=True, text=True,
+                                      check=True).stdout)
+        self.assertEqual([(x["id"], x["level"], x["tile"]) for x in t["tasks"]],
+                         [("Tile_+000_+001/Tile_+000_+001_L17_0", 17, "Tile_+000_+001")])
+        self.assertEqual(t["copies"], [{"input": os.path.join(prod, "metadata.xml"), "output": "metadata.xml"}])
+        out = os.path.join(self.work, "tasks", "cc_out")
+        p = batch(prod, "-o", out, "--config", common.CONFIG)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        with open(os.path.join(out, "metadata.xml")) as f:
+            self.assertIn("EPSG:4326", f.read())
+        self.assertTrue(os.path.isfile(os.path.join(out, "Tile_+000_+001", "Tile_+000_+001_L17_0.obj")))
+
         p = subprocess.run([common.EXE, "tasks", os.path.join(inp, "nope")], capture_output=True, text=True)
         self.assertEqual(p.returncode, 1)
         self.assertIn("nope: no such file or folder", p.stderr)
