@@ -126,6 +126,8 @@ class DaskBatchTest(unittest.TestCase):
             else:
                 self.assertEqual(t["status"], "finished", (tid, t))
                 self.assertEqual(len(finished), 1, (tid, finished))
+        # Dask's rerun of the lost worker's attempt is the same attempt (its own staging folder).
+        self.assertEqual(len(attempts), 8 + 3, attempts)
         self.assertEqual(leftovers(out), [])
         got = {k: v for k, v in model_files(out).items() if not k.startswith("crashme")}
         self.assertEqual(got, model_files(ref_out))

@@ -62,15 +62,19 @@ def run_attempt(spec):
     """Runs one attempt; never raises for a failing run (the result says what happened).
 
     spec (dict): texdefrag (executable path), input (file), config (file), sets (list of K=V),
-      staging (absolute folder, created here, must not exist), timeout_s (float or None).
+      staging (absolute path prefix: this execution writes into STAGING.<random>/, created here),
+      timeout_s (float or None).
     Returns a dict: status ("ok", "failed", "timeout", "crashed", "unreachable"), error (text or
       None), exit_code, signal, wall_s, cpu_s (child user + system), max_rss_kb, host, started_at,
       finished_at, files (names in STAGING/out when ok), figures (run report figures when ok).
     """
     t0 = time.time()
+    # Each execution gets its own folder: Dask reruns an attempt whose worker was lost, and the
+    # lost execution's folder (maybe still being written by an orphan) must not be reused.
+    staging = f"{spec['staging']}.{os.urandom(4).hex()}"
     res = {"host": socket.gethostname(), "started_at": t0, "exit_code": None, "signal": None,
            "max_rss_kb": None, "cpu_s": None, "files": [], "figures": {}, "error": None,
-           "staging": spec["staging"]}
+           "staging": staging}
 
     def done(status, error=None):
         res["status"], res["error"] = status, error
@@ -83,7 +87,6 @@ def run_attempt(spec):
         if not os.path.exists(path):
             return done("unreachable", f"{what} {path} is missing on host {res['host']}"
                         + (" (shared storage not mounted at the same path?)" if what != "input file" else ""))
-    staging = spec["staging"]
     out_dir = os.path.join(staging, "out")
     try:
         os.makedirs(out_dir)
