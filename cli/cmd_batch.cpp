@@ -10,6 +10,7 @@
 #include "commands.h"
 
 #include "texdefrag/io/model_format.h"
+#include "texdefrag/production/production.h"
 #include "texdefrag/util/paths.h"
 
 #include <nlohmann/json.hpp>
@@ -135,6 +136,13 @@ json production_tasks(const std::string& input, const std::string& exclude) {
   // A ContextCapture production's metadata.xml (SRS, origin) passes through unchanged.
   if (fs::is_regular_file(in / "metadata.xml"))
     out["copies"].push_back({{"input", normal_absolute(in / "metadata.xml").string()}, {"output", "metadata.xml"}});
+  if (fs::is_regular_file(in / "metadata.xml", ec)) {
+    // A ContextCapture production (production/production.h): each task's level from its name.
+    const Production p = list_production(input, "");
+    for (json& t : out["tasks"])
+      for (const ProductionTask& pt : p.tasks)
+        if (normal_absolute(pt.input).string() == t["input"].get<std::string>() && !pt.level.empty()) t["level"] = pt.level;
+  }
   if (out["tasks"].empty())
     throw std::runtime_error(input + ": no model file found (formats: " + format_names() +
                              "; searched recursively, hidden folders and texdefrag outputs skipped)");

@@ -1,4 +1,4 @@
-// Sub-commands contributed by eval/ (eval, bench, synth) to the texdefrag command line.
+// Sub-commands contributed by eval/ (eval, bench, synth) and cli/cmd_*.cpp to the texdefrag command line.
 // Each adds itself to `app` and returns the sub-command; the callback sets `exit_code`
 // (0 ok, 1 failure, 2 usage or configuration error).
 #pragma once
@@ -13,4 +13,12 @@ CLI::App* add_buildings_command(CLI::App& app, int& exit_code);  // eval/buildin
 // cli/cmd_batch.cpp (docs/batch.md)
 CLI::App* add_tasks_command(CLI::App& app, int& exit_code);  // the task list of a production
 CLI::App* add_batch_command(CLI::App& app, int& exit_code);  // execs tools/batch/texdefrag_batch
+}  // namespace texdefrag::cli
+
+#include "texdefrag/pipeline/pipeline.h"
+
+namespace texdefrag::cli {
+/// `texdefrag run` on a production folder (cli/cmd_production.cpp). Returns the exit code.
+int run_production_command(const PipelineConfig& config, const std::string& input, const std::string& output_dir,
+                           bool allow_missing_children, bool quiet, const ProgressFn& progress);
 }  // namespace texdefrag::cli

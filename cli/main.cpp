@@ -5,6 +5,7 @@
 #include "texdefrag/io/image.h"
 #include "texdefrag/io/obj.h"
 #include "texdefrag/pipeline/pipeline.h"
+#include "texdefrag/production/production.h"
 
 #include <CLI/CLI.hpp>
 #include <unistd.h>
@@ -109,7 +110,7 @@ int main(int argc, char** argv) {
   bool quiet = false, no_write = false, print_report = false;
   auto* run = app.add_subcommand("run", "Run a pipeline configuration on one model");
   run->add_option("--config,-c", config_path, "Pipeline configuration (JSON)")->required();
-  run->add_option("input", input, "Input OBJ")->required();
+  run->add_option("input", input, "Input model (OBJ, OSGB) or production folder (docs/production.md)")->required();
   run->add_option("-o,--output", output_dir, "Output folder (created; must not be the input's folder)");
   run->add_option("--set", sets, "Override an option: SECTION.OPTION=VALUE or STAGE.OPTION=VALUE (repeatable)");
   run->add_flag("--quiet,-q", quiet, "No progress bar and no summary line");
@@ -125,6 +126,8 @@ int main(int argc, char** argv) {
         std::cerr << "texdefrag run: -o OUTDIR is required (or --no-write)\n";
         return 2;
       }
+      if (is_production(input))
+        return cli::run_production_command(cfg, input, output_dir, allow_missing, quiet, make_progress(quiet));
       RunOptions ro;
       ro.input = input;
       ro.output_dir = output_dir;

@@ -5,6 +5,7 @@
 #include "osgb_test_util.h"
 #include "texdefrag/io/osgb.h"
 #include "texdefrag/pipeline/pipeline.h"
+#include "texdefrag/production/production.h"
 #include "texdefrag/testing/fixtures.h"
 #include "texdefrag/util/paths.h"
 
@@ -244,4 +245,71 @@ TEST(Osgb, TruncatedFileIsAnErrorNamingIt) {
   }
   const std::string e = error_of([&] { OsgbFormat().read(cut); });
   EXPECT_EQ(e.rfind(cut + ": ", 0), 0u) << e;
+}
+
+// A production folder built from the scenes above: metadata.xml, Tile_A/ with a root PagedLOD
+// file and its child, Tile_B/ with an untextured root (copied unchanged).
+TEST(Production, RunsEveryTileIntoTheSameLayout) {
+  const std::string root = texdefrag::testing::temp_dir() + "/prod";
+  fs::create_directories(root + "/Tile_A");
+  build_scene(root + "/Tile_A");
+  fs::rename(root + "/Tile_A/tile.osgb", root + "/Tile_A/Tile_A.osgb");
+  std::ofstream(root + "/metadata.xml") << "<ModelMetadata version=\"1\"><SRS>EPSG:4547</SRS></ModelMetadata>\n";
+  fs::create_directories(root + "/Tile_B");
+  {
+    osg::ref_ptr<osg::Geode> g = new osg::Geode;
+    osg::ref_ptr<osg::Geometry> geo = strip_geometry<osg::Vec3Array>(4, 0, 0, 0);
+    geo->setTexCoordArray(0, nullptr);
+    geo->addPrimitiveSet(new osg::DrawArrays(GL_TRIANGLE_STRIP, 0, 4));
+    g->addDrawable(geo.get());
+    ASSERT_TRUE(osgDB::writeNodeFile(*g, root + "/Tile_B/Tile_B.osgb"));
+  }
+  const std::string out = root + "_out";
+  const Production p = list_production(root, out);
+  EXPECT_EQ(p.kind, "contextcapture");
+  ASSERT_EQ(p.tasks.size(), 3u);
+  EXPECT_EQ(p.tasks[0].relative, "Tile_A/Tile_A.osgb");
+  EXPECT_EQ(p.tasks[0].level, "root");
+  EXPECT_EQ(p.tasks[1].relative, "Tile_A/child.osgb");
+  EXPECT_EQ(p.tasks[0].output_dir, out + "/Tile_A");
+  EXPECT_EQ(p.copies, std::vector<std::string>{"metadata.xml"});
+  EXPECT_EQ(production_json(p)["tasks"].size(), 3u);
+
+  const PipelineConfig cfg = load_config((fs::path(source_dir()) / "configs" / "repack.json").string());
+  ProductionRunOptions ro;
+  ro.output_dir = out;
+  const json summary = run_production(cfg, p, ro);
+  for (const char* f : {"metadata.xml", "Tile_A/Tile_A.osgb", "Tile_A/child.osgb", "Tile_B/Tile_B.osgb",
+                        "Tile_A/Tile_A.report.json", "texdefrag_summary.json"})
+    EXPECT_TRUE(fs::exists(out + "/" + f)) << f;
+  auto bytes = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  EXPECT_EQ(bytes(root + "/metadata.xml"), bytes(out + "/metadata.xml"));
+  EXPECT_EQ(bytes(root + "/Tile_B/Tile_B.osgb"), bytes(out + "/Tile_B/Tile_B.osgb"));  // no texture: copied
+  EXPECT_EQ(summary["tasks"].size(), 3u);
+  EXPECT_TRUE(summary["tasks"][2]["copied"].get<bool>());
+  EXPECT_EQ(summary["levels"]["all"]["tasks"], 3);
+  const LoadedModel in = OsgbFormat().read(root + "/Tile_A/Tile_A.osgb");
+  const LoadedModel back = OsgbFormat().read(out + "/Tile_A/Tile_A.osgb");
+  osgb_test::expect_same_positions(in.mesh, back.mesh, "Tile_A");
+  EXPECT_EQ(osgb_test::structure(root + "/Tile_A/Tile_A.osgb"), osgb_test::structure(out + "/Tile_A/Tile_A.osgb"));
+
+  // Output inside the production, a missing child (names child and parent, no summary), a folder
+  // with only a tileset.json: errors.
+  ro.output_dir = root + "/out";
+  EXPECT_NE(error_of([&] { run_production(cfg, list_production(root, ro.output_dir), ro); }).find("inside it"),
+            std::string::npos);
+  fs::remove(root + "/Tile_A/child.osgb");
+  const std::string out2 = root + "_out2";
+  ro.output_dir = out2;
+  const std::string e = error_of([&] { run_production(cfg, list_production(root, out2), ro); });
+  EXPECT_NE(e.find("Tile_A/Tile_A.osgb"), std::string::npos) << e;
+  EXPECT_NE(e.find("child 'child.osgb' of"), std::string::npos) << e;
+  EXPECT_FALSE(fs::exists(out2 + "/texdefrag_summary.json"));
+  const std::string tiles = texdefrag::testing::temp_dir() + "/tiles";
+  fs::create_directories(tiles);
+  std::ofstream(tiles + "/tileset.json") << "{}";
+  EXPECT_NE(error_of([&] { list_production(tiles, ""); }).find("3D Tiles"), std::string::npos);
 }
