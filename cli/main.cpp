@@ -1,6 +1,7 @@
 // texdefrag command line: run a pipeline, list and describe stages, evaluate, benchmark, synthesise.
 // Exit codes: 0 ok, 1 failure (bad input data, stage error), 2 usage or configuration error.
 #include "commands.h"
+#include "subcommand_check.h"
 
 #include "texdefrag/io/image.h"
 #include "texdefrag/io/obj.h"
@@ -217,6 +218,7 @@ int main(int argc, char** argv) {
   cli::add_tasks_command(app, exit_code);
   cli::add_batch_command(app, exit_code);
 
+  if (const int code = cli::check_subcommand_name(app, argc, argv)) return code;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

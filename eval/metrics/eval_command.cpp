@@ -4,6 +4,7 @@
 
 #include "commands.h"  // cli/commands.h
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -30,7 +31,18 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
   sub->add_flag("--no-texture", args->no_texture, "skip texture fidelity (do not read the page images)");
   sub->add_option("--position-tolerance", args->tolerance,
                   "model units: output positions this close to an input position are the same vertex")
-      ->check(CLI::Range(0.0, 1e300));
+      ->check(CLI::Validator(
+          [](std::string& s) {
+            // note: CLI::Range lets NaN through (every comparison with NaN is false).
+            try {
+              size_t used = 0;
+              const double d = std::stod(s, &used);
+              if (used == s.size() && std::isfinite(d) && d >= 0) return std::string();
+            } catch (const std::exception&) {
+            }
+            return "must be a finite number >= 0, got '" + s + "'";
+          },
+          "NUMBER >= 0"));
   sub->callback([args, &exit_code]() {
     try {
       for (const std::string* p : {&args->in, &args->out}) {

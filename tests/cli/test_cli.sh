@@ -30,5 +30,41 @@ check "quiet run prints nothing" 0 "" -- "$exe" run -q -c "$src/configs/repack.j
 [ ! -s "$work/err" ] || { echo "FAIL quiet run wrote to stderr"; fail=$((fail+1)); }
 check "eval ok" 0 "PSNR" -- "$exe" eval "$model" "$work/o5/building.obj"
 check "eval missing file" 1 "$work/nope.obj" -- "$exe" eval "$model" "$work/nope.obj"
+# Issue 11, cases 1 and 2: no input file is ever written; output.name is a file stem.
+mkdir -p "$work/in" && cp "$src"/examples/building/building.{obj,mtl} "$src"/examples/building/building_0.jpg "$work/in/"
+sum_in() { (cd "$work/in" && sha256sum building.obj building.mtl building_0.jpg); }
+before=$(sum_in)
+check "write_colored onto the input refused" 2 "'write_colored' = \"$work/in/building.obj\"" -- "$exe" run -q -c "$src/configs/repack.json" "$work/in/building.obj" -o "$work/o7" --set detector.type=detectors.angle_growing --set "detector.write_colored=$work/in/building.obj"
+check "output.name ../in/copy refused" 2 "output.name: '../in/copy'" -- "$exe" run -q -c "$src/configs/repack.json" "$work/in/building.obj" -o "$work/o8" --set output.name=../in/copy
+check "output.name absolute refused" 2 "output.name: '$work/abs'" -- "$exe" run -q -c "$src/configs/repack.json" "$work/in/building.obj" -o "$work/o8" --set "output.name=$work/abs"
+check "validate refuses output.name a/b" 2 "output.name: 'a/b'" -- "$exe" validate -c "$src/configs/repack.json" --set output.name=a/b
+[ "$(sum_in)" = "$before" ] && [ "$(ls "$work/in" | wc -l)" -eq 3 ] && [ ! -e "$work/abs.obj" ] || { echo "FAIL an input file was written"; fail=$((fail+1)); }
+# Issue 11, typed options: required, --set SECTION.type= resets, a stray library is skipped.
+printf '{"detector": {"type": "detectors.labels"}}' > "$work/labels.json"
+check "validate: required labels path" 2 "detector (detectors.labels): 'path' is required" -- "$exe" validate -c "$work/labels.json"
+check "validate: labels path missing" 2 "'path' = \"$work/none.txt\": no such file" -- "$exe" validate -c "$work/labels.json" --set "detector.path=$work/none.txt"
+check "--set detector.type resets its options" 0 "ok" -- "$exe" validate -c "$src/configs/best.json" --set detector.type=detectors.angle_growing
+check "--set after the type applies" 2 "unknown option 'w_flatness'" -- "$exe" validate -c "$src/configs/repack.json" --set detector.w_flatness=0.5 --set detector.type=detectors.angle_growing
+mkdir -p "$work/plugins"
+for lib in /usr/lib/x86_64-linux-gnu/libz.so.1 /lib/x86_64-linux-gnu/libz.so.1; do [ -e "$lib" ] && cp "$lib" "$work/plugins/stray.so" && break; done
+check "stray .so skipped" 0 "skipping $work/plugins/stray.so: not a texdefrag plugin" -- env TEXDEFRAG_PLUGIN_PATH="$work/plugins" "$exe" validate -c "$src/configs/repack.json"
+# Issue 11, case 5: small ones.
+check "unknown subcommand" 2 "unknown subcommand 'frobnicate' (valid: run, validate" -- "$exe" frobnicate
+for bad in nan inf -1; do
+  check "eval --position-tolerance $bad" 2 "--position-tolerance" -- "$exe" eval "$model" "$work/o5/building.obj" --position-tolerance "$bad"
+done
+mkdir -p "$work/bom" && cp "$src/examples/building/building_0.jpg" "$work/bom/"
+{ printf '\xEF\xBB\xBF'; cat "$src/examples/building/building.obj"; } > "$work/bom/building.obj"
+{ printf '\xEF\xBB\xBF'; cat "$src/examples/building/building.mtl"; } > "$work/bom/building.mtl"
+check "UTF-8 BOM in OBJ and MTL accepted" 0 "" -- "$exe" run -q -c "$src/configs/repack.json" "$work/bom/building.obj" -o "$work/o9"
+mkdir -p "$work/png"
+printf 'mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl a\nf 1/1 2/2 3/3\n' > "$work/png/m.obj"
+printf 'newmtl a\nmap_Kd page.png\n' > "$work/png/m.mtl"
+# a PNG signature and a valid 8x8 RGB IHDR, then a truncated IDAT
+python3 -c 'import struct, zlib, sys
+def chunk(t, d): return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+sys.stdout.buffer.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 8, 8, 8, 2, 0, 0, 0)) + chunk(b"IDAT", b"\x78\x9c\x01\x02")[:12])' > "$work/png/page.png"
+check "corrupt PNG names the file" 1 "$work/png/page.png" -- "$exe" run -q -c "$src/configs/repack.json" "$work/png/m.obj" -o "$work/o10"
+! grep -q "libpng error" "$work/err" || { echo "FAIL a raw libpng line reached stderr:"; cat "$work/err"; fail=$((fail+1)); }
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -152,6 +152,13 @@ TEST(ObjRead, SeveralMtllibsMapKdOptionsAndPathsWithSpacesRelativeToMtlFolder) {
   EXPECT_EQ(m.pages[2].image_path, (fs::path(dir) / "glass.png").string());
   EXPECT_EQ(m.pages[1].width, 2);
   EXPECT_EQ(m.pages[1].height, 6);
+  // Addressing: `-clamp on` clamps, the MTL default repeats.
+  EXPECT_FALSE(m.pages[0].clamp);
+  EXPECT_TRUE(m.pages[1].clamp);
+  EXPECT_FALSE(m.pages[2].clamp);
+  // Every file read, for the write service to protect.
+  EXPECT_EQ(m.source_files.front(), obj);
+  EXPECT_EQ(m.source_files.size(), 1u + 3u + 3u) << "the OBJ, three MTLs, three page images";
   // Faces: wall -> page 1, glass -> page 2, plain -> textured face on a material without image
   // -> kNoPage, roof -> page 0.
   ASSERT_EQ(m.faces.size(), 4u);
@@ -427,6 +434,7 @@ INSTANTIATE_TEST_SUITE_P(
         MtlErrorCase{"unknown_option", "newmtl b\nmap_Kd -zz 1 t.png\n", 2, "unknown map_Kd option '-zz'"},
         MtlErrorCase{"option_not_numeric", "newmtl b\nmap_Kd -bm x t.png\n", 2, "map_Kd option -bm: expected a number, found 'x'"},
         MtlErrorCase{"option_missing_argument", "newmtl b\nmap_Kd -clamp\n", 2, "expected 1 argument(s) after map_Kd option -clamp"},
+        MtlErrorCase{"clamp_not_on_or_off", "newmtl b\nmap_Kd -clamp yes t.png\n", 2, "map_Kd option -clamp: expected on or off, found 'yes'"},
         MtlErrorCase{"map_without_file", "newmtl b\nmap_Kd -bm 1\n", 2, "expected a texture file name after map_Kd"},
         MtlErrorCase{"second_map", "newmtl b\nmap_Kd t.png\n\nmap_Kd u.png\n", 4, "second map_Kd for material 'b' (first at line 2)"}));
 

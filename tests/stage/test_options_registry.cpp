@@ -6,6 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <filesystem>
+
 using namespace texdefrag;
 
 namespace {
@@ -116,12 +119,91 @@ TEST(Registry, EveryBuiltStageIsCreatedByNameWithDefaults) {
   ASSERT_NE(r.find("detectors.none"), nullptr);
   ASSERT_NE(r.find("mergers.none"), nullptr);
   ASSERT_NE(r.find("packers.shelf"), nullptr);
+  const std::string file = texdefrag::testing::temp_dir() + "/input.txt";
+  std::fclose(std::fopen(file.c_str(), "w"));
   for (const StageInfo* info : r.list()) {
     auto s = r.create(info->name);
     ASSERT_TRUE(s) << info->name;
-    s->set_options(default_options(*info));
+    json required = json::object();  // required input files (detectors.labels' path)
+    for (const OptionSpec& o : info->options)
+      if (o.required && o.type == OptionType::InputPath) required[o.key] = file;
+    s->set_options(default_options(*info, required));
     EXPECT_FALSE(info->description.empty()) << info->name;
     EXPECT_FALSE(info->doc.empty()) << info->name;
     for (const OptionSpec& o : info->options) EXPECT_FALSE(o.help.empty()) << info->name << "." << o.key;
   }
+}
+
+// ------------------------------------------------------------------------------------------------
+// Typed options (issue 11): required, enum without fallback, input and output paths, stage
+// references, and a stray library in a plugin folder.
+
+namespace {
+StageInfo typed_info() {
+  StageInfo i = dummy_info("detectors.typed");
+  i.options = {opt_input_path("labels", "a label file").required(), opt_output_path("write", "an output name"),
+               opt_stage("other", "detectors", "another detector"), opt_enum("mode", "a", {"a", "b"}, "mode")};
+  return i;
+}
+std::string errors_of(const StageInfo& info, const json& values) {
+  std::vector<std::string> errors;
+  make_options(info, values, "detector (" + info.name + ")", errors);
+  std::string all;
+  for (const auto& e : errors) all += e + "\n";
+  return all;
+}
+}  // namespace
+
+TEST(TypedOptions, ARequiredOptionMissingIsAnErrorNamingIt) {
+  EXPECT_NE(errors_of(typed_info(), json::object()).find("detector (detectors.typed): 'labels' is required"), std::string::npos);
+  EXPECT_NE(errors_of(typed_info(), {{"labels", ""}}).find("'labels' is required"), std::string::npos);
+}
+
+TEST(TypedOptions, InputPathsMustExistOutputNamesStayInTheOutputFolder) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  const std::string file = dir + "/l.txt";
+  std::fclose(std::fopen(file.c_str(), "w"));
+  EXPECT_EQ(errors_of(typed_info(), {{"labels", file}, {"write", "regions.obj"}}), "");
+  EXPECT_NE(errors_of(typed_info(), {{"labels", dir + "/missing.txt"}}).find("'labels' = \"" + dir + "/missing.txt\": no such file"),
+            std::string::npos);
+  for (const std::string bad : {"/tmp/x.obj", "../in/x.obj", "a/../../x.obj"})
+    EXPECT_NE(errors_of(typed_info(), {{"labels", file}, {"write", bad}}).find("'write' = \"" + bad + "\""), std::string::npos) << bad;
+}
+
+TEST(TypedOptions, StageReferencesNameARegisteredStageOfTheirKind) {
+  Registry::instance().load_plugins();
+  const std::string dir = texdefrag::testing::temp_dir();
+  const std::string file = dir + "/l.txt";
+  std::fclose(std::fopen(file.c_str(), "w"));
+  EXPECT_EQ(errors_of(typed_info(), {{"labels", file}, {"other", "detectors.none"}}), "");
+  EXPECT_NE(errors_of(typed_info(), {{"labels", file}, {"other", "detectors.nonee"}}).find("did you mean \"detectors.none\""),
+            std::string::npos);
+  EXPECT_NE(errors_of(typed_info(), {{"labels", file}, {"other", "packers.shelf"}}).find("is not a registered detectors stage"),
+            std::string::npos);
+}
+
+TEST(TypedOptions, EnumValuesNeverFallBackToADefault) {
+  const Options o(json{{"mode", "c"}});  // not validated: what a stage could be handed by mistake
+  EXPECT_THROW(o.get_enum<int>("mode", {{"a", 1}, {"b", 2}}), std::invalid_argument);
+  const Options ok(json{{"mode", "b"}});
+  EXPECT_EQ(ok.get_enum<int>("mode", {{"a", 1}, {"b", 2}}), 2);
+}
+
+TEST(Registry, AStrayLibraryInAPluginFolderIsSkippedWithAWarningNamingIt) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  // A real shared library that is not a texdefrag module: the framework library itself has no entry point.
+  std::string lib;
+  for (const char* c : {"/usr/lib/x86_64-linux-gnu/libz.so.1", "/lib/x86_64-linux-gnu/libz.so.1"})
+    if (std::filesystem::exists(c)) lib = c;
+  if (lib.empty()) GTEST_SKIP() << "no libz.so.1 to copy";
+  std::filesystem::copy_file(lib, dir + "/stray.so");
+  setenv("TEXDEFRAG_PLUGIN_PATH", dir.c_str(), 1);
+  Registry r;
+  ::testing::internal::CaptureStderr();
+  EXPECT_NO_THROW(r.load_plugins());
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  unsetenv("TEXDEFRAG_PLUGIN_PATH");
+  EXPECT_NE(err.find("skipping " + dir + "/stray.so: not a texdefrag plugin"), std::string::npos) << err;
+  ASSERT_EQ(r.skipped().size(), 1u);
+  EXPECT_NE(r.find("detectors.none"), nullptr);  // the real modules still load
 }

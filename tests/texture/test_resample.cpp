@@ -761,5 +761,82 @@ TEST(TextureResample, LeastSquaresFitIterationsAreValidated) {
   EXPECT_THROW(s.run(o), StageError);
 }
 
+// ------------------------------------------------------------------------------------------------
+// Texture addressing (issue 11, case 3): repeat as the MTL default says, clamp with `-clamp on`.
+
+/// 33 x 31 = 1,023 texels, each its own colour.
+Image distinct_colours() {
+  return make_image(33, 31, 3, [](int x, int y, int c) { return c == 0 ? x * 7 : c == 1 ? y * 8 : (x * 5 + y * 3) % 256; });
+}
+
+/// Bilinear value (no rounding) of channel c at texel-space point p (y up) with repeat addressing.
+double read_bilinear_repeat(const Image& im, const Vec2& p, int c) {
+  const double gx = p.x() - 0.5, gy = im.height - p.y() - 0.5;
+  const int x0 = static_cast<int>(std::floor(gx)), y0 = static_cast<int>(std::floor(gy));
+  const auto wrap = [](int v, int n) { return ((v % n) + n) % n; };
+  const int xa = wrap(x0, im.width), xb = wrap(x0 + 1, im.width), ya = wrap(y0, im.height), yb = wrap(y0 + 1, im.height);
+  const double fx = gx - x0, fy = gy - y0;
+  const double top = im.at(xa, ya)[c] + fx * (im.at(xb, ya)[c] - im.at(xa, ya)[c]);
+  const double bot = im.at(xa, yb)[c] + fx * (im.at(xb, yb)[c] - im.at(xa, yb)[c]);
+  return top + fy * (bot - top);
+}
+
+TEST(TextureResampleAddressing, AChartFarOutsideTheUnitSquareKeepsItsColours) {
+  // The whole page as a chart at u = 37..38 (a whole-texel translation: copied), repeat addressing.
+  Scene s;
+  const Image img = distinct_colours();
+  const int in = s.add_input_page(img);
+  const int c = s.add_chart(in, s.add_output_page(33, 31));
+  s.add_rect(c, 37 * 33, 0, 38 * 33, 31, [](const Vec2& p) -> Vec2 { return Vec2(p.x() - 37 * 33, p.y()); });
+  for (const Filter f : {Filter::Nearest, Filter::Bilinear, Filter::Bicubic}) {
+    const auto pages = s.run(opts(f, GutterFill::PullPush));
+    EXPECT_EQ(pages[0].pixels, img.pixels) << "filter " << static_cast<int>(f);
+  }
+}
+
+TEST(TextureResampleAddressing, AChartSpanningThePageBorderWrapsWhenResampled) {
+  // u from -1 to 2 (three periods) and v from -0.5 to 0.5, scaled by 1.37 on the output page: every
+  // output texel reads the input through its wrap.
+  Scene s;
+  const Image img = distinct_colours();
+  const int in = s.add_input_page(img);
+  const double k = 1.37;
+  const int ow = static_cast<int>(std::ceil(3 * 33 * k)) + 2, oh = static_cast<int>(std::ceil(31 * k)) + 2;
+  const int c = s.add_chart(in, s.add_output_page(ow, oh));
+  const auto map = [&](const Vec2& p) -> Vec2 { return Vec2((p.x() + 33) * k + 1, (p.y() + 15.5) * k + 1); };
+  s.add_rect(c, -33, -15.5, 66, 15.5, map);
+  for (const TexelFit fit : {TexelFit::Sample, TexelFit::LeastSquares}) {
+    ResampleOptions o = opts(Filter::Bilinear, GutterFill::PullPush);
+    o.fit = fit;
+    const auto pages = s.run(o);
+    double se = 0;
+    size_t n = 0;
+    for (double y = -15; y <= 15; y += 0.173)
+      for (double x = -32.5; x <= 65.5; x += 0.173) {
+        const Vec2 p(x, y), q = map(p);
+        for (int ch = 0; ch < 3; ++ch) {
+          const double d = read_bilinear_repeat(img, p, ch) - read_bilinear(pages[0], q, ch);
+          se += d * d;
+          ++n;
+        }
+      }
+    const double psnr = 10 * std::log10(255.0 * 255.0 / (se / static_cast<double>(n)));
+    EXPECT_GT(psnr, 30.0) << "fit " << static_cast<int>(fit);
+  }
+}
+
+TEST(TextureResampleAddressing, ClampOnClampsToTheEdge) {
+  // `map_Kd -clamp on`: the chart at u = 37..38 reads the page's right column everywhere.
+  Scene s;
+  const Image img = distinct_colours();
+  const int in = s.add_input_page(img);
+  s.mesh.pages[0].clamp = true;
+  const int c = s.add_chart(in, s.add_output_page(33, 31));
+  s.add_rect(c, 37 * 33, 0, 38 * 33, 31, [](const Vec2& p) -> Vec2 { return Vec2(p.x() - 37 * 33, p.y()); });
+  const auto pages = s.run(opts(Filter::Bilinear, GutterFill::PullPush));
+  for (int j = 0; j < 31; ++j)
+    for (int i = 0; i < 33; ++i) EXPECT_TRUE(same_texel(pages[0], i, j, img, 32, j)) << i << "," << j;
+}
+
 }  // namespace
 }  // namespace texdefrag

@@ -14,14 +14,84 @@
 #include <filesystem>
 #include <limits>
 #include <memory>
+#include <mutex>
 
 namespace fs = std::filesystem;
 
 namespace texdefrag {
 namespace {
 
+/// Captures what the C libraries under OpenImageIO print on stderr while it lives (libpng's default
+/// error handler prints "libpng error: ..." before OpenImageIO reports the failure): the text goes
+/// into our own message, naming the file, instead of a raw line on the terminal.
+/// note: stderr is process-wide, so captures are serialised by a mutex (image reads are sequential in
+/// the pipeline); while one is active, other threads' stderr output is captured too and dropped.
+class StderrCapture {
+ public:
+  StderrCapture() : lock_(mutex()) {
+    std::fflush(stderr);
+    tmp_ = std::tmpfile();
+    if (!tmp_) return;
+    saved_ = ::dup(STDERR_FILENO);
+    if (saved_ < 0 || ::dup2(::fileno(tmp_), STDERR_FILENO) < 0) restore();
+  }
+  ~StderrCapture() { restore(); }
+  StderrCapture(const StderrCapture&) = delete;
+  StderrCapture& operator=(const StderrCapture&) = delete;
+
+  /// What was printed so far, on one line ("" when nothing), with libpng's prefix dropped.
+  std::string text() {
+    if (!tmp_) return {};
+    std::fflush(stderr);
+    std::string s;
+    std::rewind(tmp_);
+    char buf[512];
+    size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, tmp_)) > 0 && s.size() < 2000) s.append(buf, n);
+    std::string out;
+    size_t b = 0;
+    while (b < s.size()) {
+      size_t e = s.find('\n', b);
+      if (e == std::string::npos) e = s.size();
+      std::string line = s.substr(b, e - b);
+      for (const char* prefix : {"libpng error: ", "libpng warning: "})
+        if (line.rfind(prefix, 0) == 0) line = line.substr(std::strlen(prefix));
+      if (!line.empty()) out += (out.empty() ? "" : "; ") + line;
+      b = e + 1;
+    }
+    return out;
+  }
+
+ private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  void restore() {
+    if (saved_ >= 0) {
+      std::fflush(stderr);
+      ::dup2(saved_, STDERR_FILENO);
+      ::close(saved_);
+      saved_ = -1;
+    }
+    if (tmp_) {
+      std::fclose(tmp_);
+      tmp_ = nullptr;
+    }
+  }
+  std::lock_guard<std::mutex> lock_;
+  std::FILE* tmp_ = nullptr;
+  int saved_ = -1;
+};
+
+/// " (the decoder said: ...)" when the capture holds text, else "".
+std::string decoder_said(StderrCapture& cap) {
+  const std::string t = cap.text();
+  return t.empty() ? std::string() : " (the decoder said: " + t + ")";
+}
+
 /// Opens an image for reading or throws ImageError naming the file.
-std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
+std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path, StderrCapture& cap) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw ImageError(path + ": no such file");
   if (!fs::is_regular_file(path, ec)) throw ImageError(path + ": not a regular file");
@@ -33,7 +103,7 @@ std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   if (!in) {
     std::string why = OIIO::geterror();
     if (why.empty()) why = "unknown error";
-    throw ImageError(path + ": cannot read image: " + why);
+    throw ImageError(path + ": cannot read image: " + why + decoder_said(cap));
   }
   const OIIO::ImageSpec& spec = in->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
@@ -52,7 +122,8 @@ std::string lower_extension(const fs::path& p) {
 }  // namespace
 
 Image read_image(const std::string& path) {
-  auto in = open_input(path);
+  StderrCapture cap;
+  auto in = open_input(path, cap);
   const OIIO::ImageSpec& spec = in->spec();
   Image img;
   img.width = spec.width;
@@ -68,14 +139,16 @@ Image read_image(const std::string& path) {
   // OpenImageIO converts any pixel type to UINT8 (scaling 16-bit, clamping float to [0, 1]).
   if (!in->read_image(0, 0, 0, img.channels, OIIO::TypeDesc::UINT8, img.pixels.data())) {
     std::string why = in->geterror();
-    throw ImageError(path + ": cannot read pixels: " + (why.empty() ? std::string("unknown error") : why));
+    throw ImageError(path + ": cannot read pixels: " + (why.empty() ? std::string("unknown error") : why) +
+                     decoder_said(cap));
   }
   in->close();
   return img;
 }
 
 void read_image_size(const std::string& path, int& width, int& height) {
-  auto in = open_input(path);
+  StderrCapture cap;
+  auto in = open_input(path, cap);
   width = in->spec().width;
   height = in->spec().height;
   in->close();

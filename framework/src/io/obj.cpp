@@ -7,6 +7,7 @@
 #include "texdefrag/io/obj.h"
 
 #include "texdefrag/io/image.h"
+#include "texdefrag/io/output_set.h"
 
 #include <unistd.h>
 
@@ -121,11 +122,13 @@ std::string slurp(const std::string& path, const std::string& context) {
   return data;
 }
 
-/// Calls fn(line_number, Line) for each line of data; handles LF and CRLF.
+/// Calls fn(line_number, Line) for each line of data; handles LF and CRLF and skips a UTF-8 byte
+/// order mark at the start (Windows editors write one).
 template <class Fn>
 void for_each_line(const std::string& data, Fn&& fn) {
   const char* p = data.data();
   const char* end = p + data.size();
+  if (data.compare(0, 3, "\xEF\xBB\xBF") == 0) p += 3;
   int number = 0;
   while (p < end) {
     ++number;
@@ -191,6 +194,10 @@ void parse_map_kd(const std::string& file, int ln, Line line, Material& m) {
       if (a >= opt->min_args && (!opt->numeric || !is_num)) break;  // optional argument absent
       if (arg.empty()) fail(file, ln, "expected " + std::to_string(opt->min_args) + " argument(s) after map_Kd option " + std::string(opt->name));
       if (opt->numeric && !is_num) fail(file, ln, "map_Kd option " + std::string(opt->name) + ": " + err);
+      if (std::string_view(opt->name) == "-clamp") {
+        if (arg != "on" && arg != "off") fail(file, ln, "map_Kd option -clamp: expected on or off, found " + in_quotes(arg));
+        m.clamp = arg == "on";
+      }
       line = arg_probe;
     }
     opt_end = line.p;
@@ -275,8 +282,10 @@ class ObjReader {
     mesh_.positions.reserve(lines / 3);
     mesh_.texcoords.reserve(lines / 3);
     mesh_.faces.reserve(lines / 3);
+    mesh_.source_files.push_back(path_);
     for_each_line(data, [&](int ln, Line line) { statement(ln, line); });
     finish_pages();
+    for (const Page& p : mesh_.pages) mesh_.source_files.push_back(p.image_path);
     return std::move(mesh_);
   }
 
@@ -477,6 +486,7 @@ class ObjReader {
       const std::string key = fs::weakly_canonical(mtl, ec).string();
       if (std::find(mtl_files_.begin(), mtl_files_.end(), key) != mtl_files_.end()) continue;
       mtl_files_.push_back(key);
+      mesh_.source_files.push_back(mtl.string());
       const size_t first = mesh_.materials.size();
       MtlState st{mesh_, material_index_, material_sources_};
       read_mtl(mtl.string(), context, st);
@@ -494,6 +504,7 @@ class ObjReader {
     Page p;
     p.material = mat.name;
     p.image_path = resolve_texture(mtl_dir, mat.map_kd).string();
+    p.clamp = mat.clamp;
     mesh_.pages.push_back(std::move(p));
     page_material_.push_back(m);
   }
@@ -613,11 +624,12 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
   // Refuse to overwrite inputs (and the OBJ with its own MTL).
   const fs::path c_obj = canonical_or_absolute(obj), c_mtl = canonical_or_absolute(mtl);
   if (c_obj == c_mtl) throw ObjError(obj_path + ": the MTL name " + in_quotes(mtl_name) + " names the OBJ itself");
-  for (const std::string& prot : options.protected_paths) {
-    const fs::path c = canonical_or_absolute(prot);
-    if (c == c_obj) throw ObjError(obj_path + ": refusing to overwrite the protected file " + prot);
-    if (c == c_mtl) throw ObjError(mtl.string() + ": refusing to overwrite the protected file " + prot);
-  }
+  // note: the same check as the write service's (io/output_set.h): canonical, and a protected
+  // folder protects everything inside it.
+  std::string prot = protected_match(obj.string(), options.protected_paths);
+  if (!prot.empty()) throw ObjError(obj_path + ": refusing to overwrite the protected file " + prot);
+  prot = protected_match(mtl.string(), options.protected_paths);
+  if (!prot.empty()) throw ObjError(mtl.string() + ": refusing to overwrite the protected file " + prot);
 
   // Materials and pages must agree: each page names one material, at most one page per material.
   std::unordered_map<std::string, size_t> material_of_name;

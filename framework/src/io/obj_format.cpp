@@ -17,11 +17,8 @@ LoadedModel ObjFormat::read(const std::string& path) const {
   m.format = name();
   m.mesh = read_obj(path);
   m.page_images.resize(m.mesh.pages.size());
-  m.input_files.push_back(path);
-  for (const Page& p : m.mesh.pages) {
-    m.input_files.push_back(p.image_path);
-    m.page_encodings.push_back(page_encoding_of_file(p.image_path));
-  }
+  m.input_files = m.mesh.source_files;  // the OBJ, every MTL, every page
+  for (const Page& p : m.mesh.pages) m.page_encodings.push_back(page_encoding_of_file(p.image_path));
   return m;
 }
 

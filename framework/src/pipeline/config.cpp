@@ -1,5 +1,7 @@
 #include "texdefrag/pipeline/pipeline.h"
 
+#include "texdefrag/io/output_set.h"
+
 #include <fstream>
 #include <sstream>
 
@@ -80,7 +82,14 @@ PipelineConfig parse_config(const json& config, const std::string& origin, const
   reg.load_plugins();
 
   // Overrides: "section.option=value" or "kind.stage.option=value" (stage must be the section's type).
-  for (const std::string& o : overrides) {
+  // "SECTION.type=X" comes first and resets the section to X with its defaults: the options of the
+  // stage it replaces mean nothing to X. The other overrides then apply in order.
+  std::vector<std::string> ordered;
+  for (const std::string& o : overrides)
+    if (o.find(".type=") != std::string::npos && o.find('.') == o.find(".type=")) ordered.push_back(o);
+  for (const std::string& o : overrides)
+    if (!(o.find(".type=") != std::string::npos && o.find('.') == o.find(".type="))) ordered.push_back(o);
+  for (const std::string& o : ordered) {
     const size_t eq = o.find('=');
     const size_t dot = o.rfind('.', eq);
     if (eq == std::string::npos || dot == std::string::npos || dot == 0 || dot + 1 >= eq) {
@@ -113,6 +122,10 @@ PipelineConfig parse_config(const json& config, const std::string& origin, const
     if (!cfg.contains(section)) cfg[section] = json::object();
     if (!cfg[section].is_object()) {
       errors.push_back("--set " + o + ": section '" + section + "' of " + origin + " is not an object");
+      continue;
+    }
+    if (key == "type" && section != "texture" && section != "output") {
+      cfg[section] = json{{"type", value}};
       continue;
     }
     cfg[section][key] = value;
@@ -167,9 +180,19 @@ PipelineConfig parse_config(const json& config, const std::string& origin, const
     json eff = sc.options.values();
     eff["type"] = sc.type;
     pc.effective[s.key] = eff;
+    for (const OptionSpec& o : info->options)
+      if (o.type == OptionType::InputPath && !sc.options.get_string(o.key).empty())
+        pc.input_files.push_back(sc.options.get_string(o.key));
   }
   pc.texture = make_options(texture_stage_info(), cfg.value("texture", json::object()), "texture", errors);
   pc.output = make_options(writer_stage_info(), cfg.value("output", json::object()), "output", errors);
+  if (pc.output.values().contains("name")) {
+    const std::string name = pc.output.get_string("name");
+    const std::string problem = name.empty() ? "" : file_stem_problem(name);
+    if (!problem.empty())
+      errors.push_back("output.name: '" + name + "' " + problem +
+                       "; it is the stem of the output files, written inside the output folder (-o)");
+  }
   pc.effective["texture"] = pc.texture.values();
   pc.effective["output"] = pc.output.values();
   if (cfg.contains("description")) pc.effective["description"] = cfg["description"];

@@ -1,9 +1,11 @@
 #include "texdefrag/pipeline/pipeline.h"
 
 #include "texdefrag/core/distortion.h"
+#include "texdefrag/core/uv_overlap.h"
 #include "texdefrag/io/image.h"
 #include "texdefrag/io/model_format.h"
 #include "texdefrag/io/obj.h"
+#include "texdefrag/io/output_set.h"
 #include "texdefrag/texture/resample.h"
 #include "texdefrag/util/memory.h"
 
@@ -11,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <memory>
 
 namespace fs = std::filesystem;
 
@@ -66,17 +69,61 @@ ProgressFn rate_limited(const ProgressFn& user) {
   };
 }
 
+/// The detector's contract: its regions partition the textured faces (every textured face in one
+/// region of [0, num_regions), no empty region) and no untextured face is in a region.
 void check_regions(const StageContext& ctx, const std::string& stage) {
   const Regions& r = ctx.regions;
   if (r.face_region.size() != ctx.mesh->faces.size())
     throw StageError(stage + ": produced " + std::to_string(r.face_region.size()) + " face regions for " +
                      std::to_string(ctx.mesh->faces.size()) + " faces");
+  if (r.num_regions < 0) throw StageError(stage + ": produced " + std::to_string(r.num_regions) + " regions");
+  std::vector<uint8_t> used(static_cast<size_t>(r.num_regions), 0);
   for (size_t f = 0; f < r.face_region.size(); ++f) {
     const bool textured = ctx.mesh->faces[f].page != kNoPage;
-    if (textured && (r.face_region[f] < 0 || r.face_region[f] >= r.num_regions))
-      throw StageError(stage + ": face " + std::to_string(f) + " has region " + std::to_string(r.face_region[f]) +
+    const int g = r.face_region[f];
+    if (textured && (g < 0 || g >= r.num_regions))
+      throw StageError(stage + ": face " + std::to_string(f) + " has region " + std::to_string(g) +
                        " outside [0, " + std::to_string(r.num_regions) + ")");
+    if (!textured && g != -1)
+      throw StageError(stage + ": face " + std::to_string(f) + " is untextured but has region " + std::to_string(g) +
+                       " (regions partition the textured faces; untextured faces have -1)");
+    if (textured) used[static_cast<size_t>(g)] = 1;
   }
+  for (size_t g = 0; g < used.size(); ++g)
+    if (!used[g]) throw StageError(stage + ": region " + std::to_string(g) + " has no face (regions are numbered 0..n-1, none empty)");
+}
+
+/// Pairs of UV triangles whose interiors overlap, counted per page: the input's (texels of the
+/// input pages) or, with a layout, the packed output's (texels of the output pages).
+size_t uv_overlap_pairs(const TexturedMesh& mesh, const Atlas& atlas, const Layout* layout) {
+  std::vector<std::vector<std::array<Vec2, 3>>> per_page(layout ? layout->pages.size() : mesh.pages.size());
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    if (mesh.faces[f].page == kNoPage) continue;
+    std::array<Vec2, 3> t;
+    size_t page = static_cast<size_t>(mesh.faces[f].page);
+    if (layout) {
+      page = static_cast<size_t>(layout->chart_page[static_cast<size_t>(atlas.face_chart[f])]);
+      for (size_t k = 0; k < 3; ++k) t[k] = layout->wedge_uv[static_cast<size_t>(atlas.face_wedge[f][k])];
+    } else {
+      for (int k = 0; k < 3; ++k) t[static_cast<size_t>(k)] = mesh.corner_texel(f, k);
+    }
+    per_page[page].push_back(t);
+  }
+  size_t n = 0;
+  for (const auto& tris : per_page) n += count_overlapping_pairs(tris);
+  return n;
+}
+
+/// Report keys the framework writes into every stage's node; a stage that writes one is an error
+/// (one name per figure, and the framework's figures cannot be forged).
+const char* const kReservedKeys[] = {"section", "time_s", "peak_rss_bytes", "regions", "charts_in",
+                                     "charts_out", "distortion_arap", "flipped_faces", "pages_out",
+                                     "uv_overlap_pairs"};
+
+void check_reserved_keys(const json& node, const std::string& stage) {
+  for (const char* k : kReservedKeys)
+    if (node.contains(k))
+      throw StageError(stage + ": wrote report key '" + k + "', which the framework reserves for its own figure");
 }
 
 void check_atlas(const StageContext& ctx, const std::string& stage) {
@@ -119,6 +166,14 @@ void check_layout(const StageContext& ctx, const std::string& stage) {
   }
 }
 
+/// Every file the run reads: the reader's files (model, MTLs, pages, ...) and every input-path option.
+std::vector<std::string> protected_inputs(const PipelineConfig& config, const LoadedModel& model) {
+  std::vector<std::string> p = model.input_files;
+  p.insert(p.end(), model.mesh.source_files.begin(), model.mesh.source_files.end());
+  for (const std::string& f : config.input_files) p.push_back(f);
+  return p;
+}
+
 std::string canonical_or_absolute(const std::string& p) {
   std::error_code ec;
   fs::path c = fs::weakly_canonical(p, ec);
@@ -126,6 +181,14 @@ std::string canonical_or_absolute(const std::string& p) {
 }
 
 }  // namespace
+
+void report_merger_figures(const TexturedMesh& mesh, int charts_in, const Atlas& atlas, json& node) {
+  node["charts_in"] = charts_in;
+  node["charts_out"] = atlas.num_charts;
+  const DistortionSummary d = atlas_distortion(mesh, atlas);
+  node["distortion_arap"] = d.arap;
+  node["flipped_faces"] = d.flipped;
+}
 
 TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, const Layout& layout,
                               const std::string& stem, const std::string& image_ext,
@@ -257,6 +320,14 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     node["pages"] = mesh.pages.size();
     progress("read", 1);
   });
+  // The write service: every input file is protected; the names known now are checked before any
+  // stage runs, so a run that would overwrite an input (an MTL the input keeps in the output
+  // folder) is refused at once.
+  std::unique_ptr<OutputSet> outputs;
+  if (options.write_output) {
+    outputs = std::make_unique<OutputSet>(options.output_dir, protected_inputs(config, model), options.input);
+    for (const std::string& name : {format.output_name(stem), stem + ".mtl", stem + ".report.json"}) outputs->check(name);
+  }
   Topology topo;
   ChartSet charts;
   timed(report, "charts", [&](json& node) {
@@ -265,10 +336,13 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     node["topology"] = topology_summary(topo.report);
     node["input"] = chart_summary(charts);
   });
+  // note: counted once here; after packing the framework counts again and refuses more.
+  const size_t input_overlaps = uv_overlap_pairs(mesh, charts.atlas, nullptr);
   size_t untextured = 0;
   for (const Face& f : mesh.faces) untextured += f.page == kNoPage;
   report["input_stats"] = {{"faces", mesh.faces.size()}, {"untextured_faces", untextured},
-                           {"topology", topology_summary(topo.report)}, {"charts", chart_summary(charts)}};
+                           {"topology", topology_summary(topo.report)}, {"charts", chart_summary(charts)},
+                           {"uv_overlap_pairs", input_overlaps}};
   {
     double mp = 0;
     for (const Page& p : mesh.pages) mp += static_cast<double>(p.width) * p.height / 1e6;
@@ -282,35 +356,48 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   ctx.atlas = charts.atlas;
   ctx.progress = progress;
   ctx.input_path = options.input;
-  ctx.output_dir = options.output_dir;
+  ctx.outputs = outputs.get();
   Registry& reg = Registry::instance();
   const StageConfig* stages[] = {&config.detector, &config.merger, &config.packer};
   for (const StageConfig* sc : stages) {
     auto stage = reg.create(sc->type);
     stage->set_options(sc->options);
     timed(report, sc->type, [&](json& node) {
-      node["section"] = sc->section;
-      ctx.report = &node;
+      // The stage writes its own numbers into a fresh node; the framework's figures are added after
+      // the framework checked the stage's contract.
+      json own = json::object();
+      ctx.report = &own;
       ctx.step(sc->type, 0);
+      const int charts_in = ctx.atlas.num_charts;
+      size_t packed_overlaps = 0;
       if (auto* d = dynamic_cast<Detector*>(stage.get())) {
         d->detect(ctx);
         check_regions(ctx, sc->type);
-        node["regions"] = ctx.regions.num_regions;
       } else if (auto* m = dynamic_cast<Merger*>(stage.get())) {
-        node["charts_in"] = ctx.atlas.num_charts;
         m->merge(ctx);
         check_atlas(ctx, sc->type);
-        node["charts_out"] = ctx.atlas.num_charts;
-        const DistortionSummary d = atlas_distortion(mesh, ctx.atlas);
-        node["distortion_arap"] = d.arap;
-        node["flipped_faces"] = d.flipped;
       } else if (auto* p = dynamic_cast<Packer*>(stage.get())) {
         p->pack(ctx);
         check_layout(ctx, sc->type);
-        node["pages_out"] = ctx.layout.pages.size();
+        packed_overlaps = uv_overlap_pairs(mesh, ctx.atlas, &ctx.layout);
+        if (packed_overlaps > input_overlaps)
+          throw StageError(sc->type + ": the packed charts overlap in " + std::to_string(packed_overlaps) +
+                           " pairs of UV triangles, the input only in " + std::to_string(input_overlaps) +
+                           " (no stage may add overlaps)");
       }
       ctx.step(sc->type, 1);
       ctx.report = nullptr;
+      check_reserved_keys(own, sc->type);
+      for (auto it = own.begin(); it != own.end(); ++it) node[it.key()] = it.value();
+      node["section"] = sc->section;
+      if (dynamic_cast<Detector*>(stage.get())) {
+        node["regions"] = ctx.regions.num_regions;
+      } else if (dynamic_cast<Merger*>(stage.get())) {
+        report_merger_figures(mesh, charts_in, ctx.atlas, node);
+      } else {
+        node["pages_out"] = ctx.layout.pages.size();
+        node["uv_overlap_pairs"] = packed_overlaps;
+      }
     });
   }
 
@@ -323,12 +410,11 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     for (size_t p = 0; p < mesh.pages.size(); ++p)
       if (used[p]) in_pages[p] = model.page_image(p);
     ResampleOptions ro;
-    const std::string filter = config.texture.get_string("filter");
-    ro.filter = filter == "nearest" ? Filter::Nearest : filter == "bicubic" ? Filter::Bicubic : Filter::Bilinear;
-    const std::string fill = config.texture.get_string("fill");
-    ro.fill = fill == "none" ? GutterFill::None : fill == "dilate" ? GutterFill::Dilate : GutterFill::PullPush;
-    ro.dilate_width = static_cast<int>(config.texture.get_int("dilate_width"));
-    ro.fit = config.texture.get_string("fit") == "least_squares" ? TexelFit::LeastSquares : TexelFit::Sample;
+    const Options& t = config.texture;
+    ro.filter = t.get_enum<Filter>("filter", {{"nearest", Filter::Nearest}, {"bilinear", Filter::Bilinear}, {"bicubic", Filter::Bicubic}});
+    ro.fill = t.get_enum<GutterFill>("fill", {{"none", GutterFill::None}, {"dilate", GutterFill::Dilate}, {"pull_push", GutterFill::PullPush}});
+    ro.dilate_width = static_cast<int>(t.get_int("dilate_width"));
+    ro.fit = t.get_enum<TexelFit>("fit", {{"sample", TexelFit::Sample}, {"least_squares", TexelFit::LeastSquares}});
     ro.fit_iterations = static_cast<int>(config.texture.get_int("fit_iterations"));
     ResampleStats rs;
     out_pages = resample_atlas(mesh, in_pages, ctx.atlas, ctx.layout, ro, &rs, progress);
@@ -353,9 +439,7 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
                                                       config.output.get_bool("match_input_quality"));
       const std::string ext = po.format == ImageFormat::Jpeg ? "jpg" : "png";
       TexturedMesh out = make_output_mesh(mesh, ctx.atlas, ctx.layout, stem, ext, options.output_dir);
-      OutputSet files(options.output_dir, model.input_files, options.input);
-      const WriteResult wr = format.write(model, out, out_pages, stem, po, files);
-      files.commit();
+      const WriteResult wr = format.write(model, out, out_pages, stem, po, *outputs);
       node["format"] = format.name();
       node["image_format"] = ext == "jpg" ? "jpeg" : "png";
       if (po.format == ImageFormat::Jpeg) node["jpeg_quality"] = po.jpeg_quality;
@@ -375,8 +459,14 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   for (const auto& kv : report["stages"].items())
     if (kv.value().contains("peak_rss_bytes")) peak = std::max(peak, kv.value()["peak_rss_bytes"].get<size_t>());
   report["peak_rss_bytes"] = peak;
-  if (options.write_output && config.output.get_bool("write_report"))
-    write_file_atomic((fs::path(options.output_dir) / (stem + ".report.json")).string(), report.dump(2) + "\n");
+  if (outputs) {
+    // The report is the manifest: written last, so its presence vouches for the set beside it.
+    if (config.output.get_bool("write_report")) {
+      const std::string path = outputs->manifest_path_for(stem + ".report.json");
+      write_file_atomic(path, report.dump(2) + "\n");
+    }
+    outputs->commit();
+  }
   return report;
 }
 

@@ -1,7 +1,11 @@
 #include "texdefrag/stage/options.h"
 
+#include "texdefrag/io/output_set.h"
+#include "texdefrag/stage/registry.h"
+
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 
@@ -14,6 +18,9 @@ const char* to_string(OptionType t) {
     case OptionType::Double: return "number";
     case OptionType::String: return "string";
     case OptionType::Enum: return "enum";
+    case OptionType::InputPath: return "input path";
+    case OptionType::OutputPath: return "output name";
+    case OptionType::StageRef: return "stage";
   }
   return "?";
 }
@@ -63,8 +70,56 @@ OptionBuilder opt_enum(std::string key, std::string def, std::vector<std::string
   return b;
 }
 
+OptionBuilder opt_input_path(std::string key, std::string help) {
+  return make(std::move(key), OptionType::InputPath, "", std::move(help));
+}
+OptionBuilder opt_output_path(std::string key, std::string help) {
+  return make(std::move(key), OptionType::OutputPath, "", std::move(help));
+}
+OptionBuilder opt_stage(std::string key, std::string kind, std::string help) {
+  OptionBuilder b = make(std::move(key), OptionType::StageRef, "", std::move(help));
+  b.spec.stage_kind = std::move(kind);
+  return b;
+}
+
+namespace {
+/// A StageRef value: a registered stage of the declared kind.
+std::string check_stage_ref(const OptionSpec& spec, const std::string& name) {
+  Registry& reg = Registry::instance();
+  reg.load_plugins();
+  const StageInfo* info = reg.find(name);
+  std::vector<std::string> candidates;
+  for (const StageInfo* i : reg.list())
+    if (spec.stage_kind.empty() || spec.stage_kind == to_string(i->kind)) candidates.push_back(i->name);
+  if (info && (spec.stage_kind.empty() || spec.stage_kind == to_string(info->kind))) return {};
+  std::string msg = "= \"" + name + "\" is not a registered " + (spec.stage_kind.empty() ? std::string("stage") : spec.stage_kind + " stage");
+  const std::string near = nearest(name, candidates);
+  if (!near.empty()) msg += " (did you mean \"" + near + "\"?)";
+  return msg;
+}
+}  // namespace
+
 std::string check_option_value(const OptionSpec& spec, const json& v) {
   switch (spec.type) {
+    case OptionType::InputPath:
+    case OptionType::OutputPath:
+    case OptionType::StageRef: {
+      if (!v.is_string()) return std::string("must be a string, got ") + json_type_name(v);
+      const std::string s = v.get<std::string>();
+      if (s.empty()) return {};  // none (an error only when required: make_options)
+      if (spec.type == OptionType::InputPath) {
+        std::error_code ec;
+        if (!std::filesystem::is_regular_file(s, ec)) return "= \"" + s + "\": no such file";
+        return {};
+      }
+      if (spec.type == OptionType::OutputPath) {
+        const std::string problem = relative_name_problem(s);
+        if (!problem.empty())
+          return "= \"" + s + "\" " + problem + " (outputs are file names inside the output folder, never paths elsewhere)";
+        return {};
+      }
+      return check_stage_ref(spec, s);
+    }
     case OptionType::Bool:
       if (!v.is_boolean()) return std::string("must be a bool, got ") + json_type_name(v);
       return {};

@@ -3,10 +3,15 @@
 #include "texdefrag/util/paths.h"
 
 #include <dlfcn.h>
+#include <elf.h>
 
 #include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <iterator>
 
 namespace fs = std::filesystem;
 
@@ -23,6 +28,42 @@ bool well_formed_name(const std::string& name) {
   for (char c : rest)
     if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
   return true;
+}
+
+constexpr const char* kEntry = "texdefrag_plugin_register";
+
+/// Whether the ELF64 shared object at `path` defines the global function `kEntry` in its dynamic
+/// symbol table, read from the file (the library is not loaded: a stray library's constructors
+/// never run). `why` says what was found when not.
+bool defines_entry(const std::string& path, std::string& why) {
+  std::ifstream in(path, std::ios::binary);
+  const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (data.size() < sizeof(Elf64_Ehdr) || std::memcmp(data.data(), ELFMAG, SELFMAG) != 0 ||
+      data[EI_CLASS] != ELFCLASS64) {
+    why = "not a 64-bit ELF shared object";
+    return false;
+  }
+  Elf64_Ehdr eh;
+  std::memcpy(&eh, data.data(), sizeof eh);
+  const auto section = [&](size_t i, Elf64_Shdr& sh) {
+    const size_t off = static_cast<size_t>(eh.e_shoff) + i * sizeof(Elf64_Shdr);
+    if (off + sizeof sh > data.size()) return false;
+    std::memcpy(&sh, data.data() + off, sizeof sh);
+    return sh.sh_offset + sh.sh_size <= data.size();
+  };
+  for (size_t i = 0; i < eh.e_shnum; ++i) {
+    Elf64_Shdr sym, str;
+    if (!section(i, sym) || sym.sh_type != SHT_DYNSYM || !section(sym.sh_link, str)) continue;
+    for (size_t k = 0; k < sym.sh_size / sizeof(Elf64_Sym); ++k) {
+      Elf64_Sym e;
+      std::memcpy(&e, data.data() + sym.sh_offset + k * sizeof e, sizeof e);
+      if (e.st_shndx == SHN_UNDEF || ELF64_ST_TYPE(e.st_info) != STT_FUNC || e.st_name >= str.sh_size) continue;
+      const char* name = data.data() + str.sh_offset + e.st_name;
+      if (std::strncmp(name, kEntry, static_cast<size_t>(str.sh_size - e.st_name)) == 0) return true;
+    }
+  }
+  why = std::string("no ") + kEntry + " entry point";
+  return false;
 }
 }  // namespace
 
@@ -107,7 +148,15 @@ void Registry::load_plugins() {
     for (const auto& e : fs::directory_iterator(dir))
       if (e.is_regular_file() && e.path().extension() == ".so") files.push_back(e.path().string());
     std::sort(files.begin(), files.end());
-    for (const auto& f : files) load_module(f);
+    for (const auto& f : files) {
+      std::string why;
+      if (!defines_entry(f, why)) {
+        skipped_.push_back(f + ": not a texdefrag plugin (" + why + ")");
+        std::cerr << "texdefrag: warning: skipping " << skipped_.back() << "\n";
+        continue;
+      }
+      load_module(f);
+    }
   }
 }
 

@@ -1,9 +1,20 @@
 #include "texdefrag/stage/stage.h"
 
+#include "texdefrag/io/output_set.h"
+
 namespace texdefrag {
 
 void StageContext::step(const std::string& stage, double fraction) const {
   if (progress && !progress(stage, fraction)) throw Cancelled();
+}
+
+std::string StageContext::output_path(const std::string& stage, const std::string& name) const {
+  if (!outputs) throw StageError(stage + ": cannot write " + name + ": this run writes no output (no output folder)");
+  try {
+    return outputs->path_for(name);
+  } catch (const OutputError& e) {
+    throw StageError(stage + ": " + e.what());
+  }
 }
 
 const char* to_string(StageKind k) {
@@ -52,6 +63,9 @@ Options make_options(const StageInfo& info, const json& values, const std::strin
     }
     out[it.key()] = it.value();
   }
+  for (const OptionSpec& o : info.options)
+    if (o.required && (out[o.key].is_null() || (out[o.key].is_string() && out[o.key].get<std::string>().empty())))
+      errors.push_back(where + ": '" + o.key + "' is required (" + o.help + ")");
   return Options(out);
 }
 

@@ -51,14 +51,28 @@ constexpr uint8_t kEmpty = 0, kBorder = 1, kInterior = 2, kCoverMask = 3, kCopie
 [[noreturn]] void fail(const std::string& what) { throw StageError("texture.resample: " + what); }
 
 // ------------------------------------------------------------------------------------------------
-// Sampling (clamp-to-edge addressing)
+// Sampling: repeat addressing (the MTL default) or clamp-to-edge (`map_Kd -clamp on`)
 
 inline int clampi(long long v, int hi) { return static_cast<int>(v < 0 ? 0 : (v > hi ? hi : v)); }
+/// Texel index `v` on an axis of `n` texels: wrapped (repeat) or clamped to the edge.
+inline int address(long long v, int n, bool repeat) {
+  if (v >= 0 && v < n) return static_cast<int>(v);
+  if (!repeat) return v < 0 ? 0 : n - 1;
+  const long long r = v % n;
+  return static_cast<int>(r < 0 ? r + n : r);
+}
 /// Clamps a grid coordinate before conversion to an integer (extrapolated maps can be huge).
 /// (NaN, from a near-singular map, goes to the low edge.)
 inline double clamp_grid(double g, int size) {
   const double hi = static_cast<double>(size) + 3.0;
   return g > -4.0 ? (g < hi ? g : hi) : -4.0;
+}
+/// A grid coordinate for sampling: with repeat addressing, one far outside the page is first
+/// brought into [0, size) by whole periods (the taps then wrap); then clamp_grid.
+inline double grid(double g, int size, bool repeat) {
+  if (repeat && !(g >= -2.0 && g < size + 2.0) && std::abs(g) < 1e15)
+    g -= std::floor(g / size) * static_cast<double>(size);
+  return clamp_grid(g, size);
 }
 
 /// floor() of a clamped grid coordinate (>= -4): truncation of a positive shift, much cheaper
@@ -88,15 +102,16 @@ template <int C>
 struct Sampler {
   const uint8_t* px = nullptr;
   int w = 0, h = 0;
+  bool repeat = true;  ///< addressing outside the page: repeat, or clamp to the edge
 
   const uint8_t* texel(int x, int y) const {
     return px + (static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x)) * C;
   }
+  /// The texel at any integer index, through the page's addressing.
+  const uint8_t* texel_at(long long x, long long y) const { return texel(address(x, w, repeat), address(y, h, repeat)); }
 
   void nearest(double gx, double gy, uint8_t* out) const {
-    const int x = clampi(ifloor(clamp_grid(gx, w) + 0.5), w - 1);
-    const int y = clampi(ifloor(clamp_grid(gy, h) + 0.5), h - 1);
-    std::memcpy(out, texel(x, y), C);
+    std::memcpy(out, texel_at(ifloor(grid(gx, w, repeat) + 0.5), ifloor(grid(gy, h, repeat) + 0.5)), C);
   }
 
   void bilinear(double gx, double gy, uint8_t* out) const {
@@ -107,12 +122,12 @@ struct Sampler {
 
   /// Bilinear value without rounding (the least-squares fit's target).
   void bilinear_f(double gx, double gy, float* out) const {
-    gx = clamp_grid(gx, w);
-    gy = clamp_grid(gy, h);
+    gx = grid(gx, w, repeat);
+    gy = grid(gy, h, repeat);
     const int x0 = ifloor(gx), y0 = ifloor(gy);
     const float fx = static_cast<float>(gx - x0), fy = static_cast<float>(gy - y0);
-    const int xa = clampi(x0, w - 1), xb = clampi(x0 + 1, w - 1);
-    const int ya = clampi(y0, h - 1), yb = clampi(y0 + 1, h - 1);
+    const int xa = address(x0, w, repeat), xb = address(x0 + 1, w, repeat);
+    const int ya = address(y0, h, repeat), yb = address(y0 + 1, h, repeat);
     const uint8_t *p00 = texel(xa, ya), *p10 = texel(xb, ya), *p01 = texel(xa, yb), *p11 = texel(xb, yb);
     for (int c = 0; c < C; ++c) {
       const float top = static_cast<float>(p00[c]) + fx * static_cast<float>(p10[c] - p00[c]);
@@ -122,15 +137,15 @@ struct Sampler {
   }
 
   void bicubic(double gx, double gy, uint8_t* out) const {
-    gx = clamp_grid(gx, w);
-    gy = clamp_grid(gy, h);
+    gx = grid(gx, w, repeat);
+    gy = grid(gy, h, repeat);
     const int x0 = ifloor(gx), y0 = ifloor(gy);
     const float tx = static_cast<float>(gx - x0), ty = static_cast<float>(gy - y0);
-    int xs[4], ys[4];
-    float wx[4], wy[4];
+    int xs[4] = {}, ys[4] = {};
+    float wx[4] = {}, wy[4] = {};
     for (int k = 0; k < 4; ++k) {
-      xs[k] = clampi(x0 - 1 + k, w - 1);
-      ys[k] = clampi(y0 - 1 + k, h - 1);
+      xs[k] = address(x0 - 1 + k, w, repeat);
+      ys[k] = address(y0 - 1 + k, h, repeat);
       wx[k] = catmull_rom(tx, k);
       wy[k] = catmull_rom(ty, k);
     }
@@ -172,6 +187,7 @@ struct CopyMap {
 struct FaceJob {
   int face = -1;
   int in_page = -1;
+  bool repeat = true;  // the input page's addressing
   std::array<Vec2, 3> out, in;  // texel space, y up
 };
 
@@ -442,8 +458,7 @@ void render_face(const FaceJob& job, const Sampler<C>& src, Filter filter, Canva
       row_dist[i] = static_cast<float>(dd);
       uint8_t* dst = row_px + static_cast<size_t>(i) * C;
       if (copy) {
-        std::memcpy(dst, src.texel(clampi(cm.ci * i + cm.cj * j + cm.c0, src.w - 1),
-                                   clampi(cm.ri * i + cm.rj * j + cm.r0, src.h - 1)), C);
+        std::memcpy(dst, src.texel_at(cm.ci * i + cm.cj * j + cm.c0, cm.ri * i + cm.rj * j + cm.r0), C);
       } else if (extrapolate) {
         src.sample(filter, g.xi * i + g.xj * j + g.x0, g.yi * i + g.yj * j + g.y0, dst);
       } else {
@@ -458,8 +473,7 @@ void render_face(const FaceJob& job, const Sampler<C>& src, Filter filter, Canva
       if (copy) {
         const long long cj = cm.cj * j + cm.c0, rj = cm.rj * j + cm.r0;
         for (int i = ilo_row; i <= ihi_row; ++i)
-          std::memcpy(row_px + static_cast<size_t>(i) * C,
-                      src.texel(clampi(cm.ci * i + cj, src.w - 1), clampi(cm.ri * i + rj, src.h - 1)), C);
+          std::memcpy(row_px + static_cast<size_t>(i) * C, src.texel_at(cm.ci * i + cj, cm.ri * i + rj), C);
       } else {
         const double gx = g.xj * j + g.x0, gy = g.yj * j + g.y0;
         switch (filter) {
@@ -578,6 +592,7 @@ size_t fit_window(const std::vector<FaceJob>& jobs, const std::vector<const Imag
     src.px = in.pixels.data();
     src.w = in.width;
     src.h = in.height;
+    src.repeat = job.repeat;
     const double sgn = det > 0 ? -1.0 : 1.0;  // the y flip reverses the orientation
     auto inside = [&](double px, double py) {
       for (int k = 0; k < 3; ++k) {
@@ -953,6 +968,7 @@ void render_page_jobs(const std::vector<FaceJob>& jobs, const std::vector<const 
     s.px = in.pixels.data();
     s.w = in.width;
     s.h = in.height;
+    s.repeat = job.repeat;
     render_face<C>(job, s, filter, cv, st);
     if (++since == kFacesPerTick) {
       prog.tick(since);
@@ -1001,6 +1017,27 @@ void render_page(const PageTask& task, const std::vector<const Image*>& inputs, 
     case GutterFill::PullPush: pull_push(out, cv.state); break;
   }
   prog.tick(n / kFillTexelsPerUnit);
+}
+
+/// With repeat addressing a face reads the same texels moved by whole pages: moves it so its lowest
+/// corner lies in the first period (u, v in [0, 1)), keeping the numbers small (a chart at u = 37
+/// then reads exactly as one at u = 0). Faces already there are not touched. Returns whether the
+/// face then lies within that one period (u, v in [0, 1]).
+bool shift_into_first_period(std::array<Vec2, 3>& in, const Page& page) {
+  const double W = page.width, H = page.height;
+  // note: half a texel of slack, so faces of an atlas that reach a hair past its edge (UV rounding
+  // in exporters) stay where they are and read as before.
+  const auto within = [&] {
+    const double t = 0.5;
+    for (const Vec2& p : in)
+      if (!(p.x() >= -t && p.x() <= W + t && p.y() >= -t && p.y() <= H + t)) return false;
+    return true;
+  };
+  if (within()) return true;
+  const double kx = std::floor(std::min({in[0].x(), in[1].x(), in[2].x()}) / W);
+  const double ky = std::floor(std::min({in[0].y(), in[1].y(), in[2].y()}) / H);
+  for (Vec2& p : in) p -= Vec2(kx * W, ky * H);
+  return within();
 }
 
 /// Finite and within 1e9 texels (keeps every product of coordinates far from overflow).
@@ -1090,10 +1127,15 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
     FaceJob job;
     job.face = static_cast<int>(f);
     job.in_page = mesh.faces[f].page;
+    job.repeat = !mesh.pages[static_cast<size_t>(job.in_page)].clamp;
     for (int k = 0; k < 3; ++k) {
       job.out[static_cast<size_t>(k)] = layout.wedge_uv[static_cast<size_t>(atlas.face_wedge[f][static_cast<size_t>(k)])];
       job.in[static_cast<size_t>(k)] = mesh.corner_texel(f, k);
     }
+    // note: a face within one period samples it with edge clamping, as before: its only reads
+    // beyond the page edge are border texels and half-texel bilinear taps, and in an atlas the
+    // opposite edge holds an unrelated chart. Only faces that cross the page border wrap.
+    if (job.repeat) job.repeat = !shift_into_first_period(job.in, mesh.pages[static_cast<size_t>(job.in_page)]);
     tasks[static_cast<size_t>(layout.chart_page[static_cast<size_t>(chart)])].jobs.push_back(job);
     ++num_jobs;
   }

@@ -41,8 +41,8 @@ class AngleGrowingDetector final : public Detector {
     if (!ctx.mesh || !ctx.topology || !ctx.input_charts || !ctx.report)
       throw StageError(std::string(kName) + ": needs the mesh, its topology, its charts and a report node");
     const double thr = options().get_double("angle_threshold_deg") * M_PI / 180;
-    const bool patches = options().get_string("unit") == "patches";
-    const bool to_region = options().get_string("reference") == "region";
+    const bool patches = options().get_enum<bool>("unit", {{"faces", false}, {"patches", true}});
+    const bool to_region = options().get_enum<bool>("reference", {{"neighbour", false}, {"region", true}});
     json& rep = *ctx.report;
     ctx.step(kName, 0.0);
     std::vector<int> face_unit;

@@ -14,11 +14,12 @@ namespace texdefrag::detectors {
 
 std::vector<OptionSpec> output_options() {
   return {
-      opt_string("write_labels", "",
-                 "Write the regions as a per-face label file (the format detectors.labels reads; "
-                 ".json = JSON, else one integer per line); empty = off"),
-      opt_string("write_colored", "",
-                 "Write a region-coloured model (OBJ + MTL + palette PNG) to this OBJ path; empty = off"),
+      opt_output_path("write_labels",
+                 "Write the regions as a per-face label file of this name in the output folder (the format "
+                 "detectors.labels reads; .json = JSON, else one integer per line); empty = off"),
+      opt_output_path("write_colored",
+                 "Write a region-coloured model (OBJ + MTL + palette PNG) of this OBJ name in the output "
+                 "folder; empty = off"),
   };
 }
 
@@ -53,7 +54,6 @@ void report_region_stats(const Regions& regions, json& report) {
       ++faces[static_cast<size_t>(r)];
       ++textured;
     }
-  report["regions"] = regions.num_regions;
   report["textured_faces"] = textured;
   if (faces.empty()) return;
   std::vector<int> s = faces;
@@ -71,12 +71,19 @@ void report_region_stats(const Regions& regions, json& report) {
 void write_region_outputs(const std::string& who, const Options& options, const StageContext& ctx) {
   const std::string labels = options.get_string("write_labels");
   const std::string colored = options.get_string("write_colored");
+  // note: every file goes through the run's write service (names relative to the output folder,
+  // never onto an input file); the stage never chooses a path itself.
   if (!labels.empty()) {
-    write_face_labels(who, labels, ctx.regions);
+    write_face_labels(who, ctx.output_path(who, labels), ctx.regions);
     if (ctx.report) (*ctx.report)["wrote_labels"] = labels;
   }
   if (!colored.empty()) {
-    write_colored_model(who, colored, *ctx.mesh, ctx.regions);
+    namespace fs = std::filesystem;
+    const fs::path name(colored);
+    const std::string obj = ctx.output_path(who, colored);
+    ctx.output_path(who, (name.parent_path() / (name.stem().string() + ".mtl")).string());
+    ctx.output_path(who, (name.parent_path() / (name.stem().string() + "_palette.png")).string());
+    write_colored_model(who, obj, *ctx.mesh, ctx.regions);
     if (ctx.report) (*ctx.report)["wrote_colored"] = colored;
   }
 }

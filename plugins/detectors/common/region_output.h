@@ -18,12 +18,14 @@ std::vector<OptionSpec> output_options();
 /// face_label: one label per face, negative = no region (must be untextured faces).
 Regions regions_from_labels(const std::vector<int>& face_label);
 
-/// Writes region statistics into `report`: regions, textured_faces, faces_per_region {min, median,
-/// mean, max}, largest_region_fraction (faces).
+/// Writes region statistics into `report`: textured_faces, faces_per_region {min, median, mean, max},
+/// largest_region_fraction (faces). The region count is the framework's figure (`regions`).
 void report_region_stats(const Regions& regions, json& report);
 
-/// Writes the outputs requested by `options` (write_labels / write_colored) for ctx.regions.
-/// who: stage name for error messages; records written paths in *ctx.report.
+/// Writes the outputs requested by `options` (write_labels / write_colored) for ctx.regions, each
+/// under its name in the output folder through ctx.output_path (write_colored also claims
+/// <stem>.mtl and <stem>_palette.png beside it).
+/// who: stage name for error messages; records written names in *ctx.report.
 void write_region_outputs(const std::string& who, const Options& options, const StageContext& ctx);
 
 /// A distinct, deterministic RGB colour per region id (golden-ratio hue walk); grey for -1.

@@ -227,7 +227,8 @@ Case building_case(int faces) {
   return b.build("building");
 }
 
-Detection run_detector(const std::string& name, const TexturedMesh& mesh, const json& overrides, ProgressFn progress) {
+Detection run_detector(const std::string& name, const TexturedMesh& mesh, const json& overrides, ProgressFn progress,
+                       OutputSet* outputs) {
   Registry& reg = Registry::instance();
   reg.load_plugins();
   std::unique_ptr<Stage> stage = reg.create(name);
@@ -244,6 +245,7 @@ Detection run_detector(const std::string& name, const TexturedMesh& mesh, const 
   ctx.atlas = charts.atlas;
   ctx.report = &d.report;
   ctx.progress = std::move(progress);
+  ctx.outputs = outputs;
   det->detect(ctx);
   d.regions = ctx.regions;
   return d;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "texdefrag/core/mesh.h"
+#include "texdefrag/io/output_set.h"
 #include "texdefrag/stage/stage.h"
 
 #include <array>
@@ -72,8 +73,9 @@ struct Detection {
 
 /// Creates detector `name` through the registry (loading the plugins), sets its declared defaults
 /// with `overrides` applied, builds topology and charts of `mesh` and runs detect().
-/// progress: optional callback given to the stage. Throws what the stage throws.
+/// progress: optional callback given to the stage. outputs: the write service for side outputs
+/// (write_labels, write_colored), or null. Throws what the stage throws.
 Detection run_detector(const std::string& name, const TexturedMesh& mesh, const json& overrides = json::object(),
-                       ProgressFn progress = {});
+                       ProgressFn progress = {}, OutputSet* outputs = nullptr);
 
 }  // namespace texdefrag::detectors::testmesh

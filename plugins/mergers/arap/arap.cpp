@@ -37,7 +37,7 @@ class ArapMerger final : public Merger {
     const int iterations = static_cast<int>(options().get_int("arap_iterations"));
     const double tolerance = options().get_double("arap_tolerance");
     const merge::MergeOptions mo = merge::merge_options_from(options());
-    if (options().get_string("solver") == "ceres") {
+    if (options().get_enum<bool>("solver", {{"eigen", false}, {"ceres", true}})) {
       merge::CeresArapSettings s;
       s.iterations = iterations;
       s.tolerance = tolerance;

@@ -64,7 +64,7 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
 
 MergeOptions merge_options_from(const Options& o) {
   MergeOptions m;
-  m.priority = o.get_string("priority") == "mmethod" ? Priority::MMethod : Priority::Planarity;
+  m.priority = o.get_enum<Priority>("priority", {{"planarity", Priority::Planarity}, {"mmethod", Priority::MMethod}});
   m.alpha = o.get_double("alpha");
   m.global_bound = o.get_double("global_bound");
   m.local_bound = o.get_double("local_bound");
@@ -73,8 +73,9 @@ MergeOptions merge_options_from(const Options& o) {
   m.max_attempts = static_cast<int>(o.get_int("max_attempts"));
   m.max_free_vertices = static_cast<int>(o.get_int("max_free_vertices"));
   m.cross_page = o.get_bool("cross_page");
-  m.second_pass = o.get_string("second_pass") == "across_regions" ? SecondPass::AcrossRegions : SecondPass::None;
-  m.second_pass_priority = o.get_string("second_pass_priority") == "planarity" ? Priority::Planarity : Priority::MMethod;
+  m.second_pass = o.get_enum<SecondPass>("second_pass", {{"none", SecondPass::None}, {"across_regions", SecondPass::AcrossRegions}});
+  m.second_pass_priority =
+      o.get_enum<Priority>("second_pass_priority", {{"planarity", Priority::Planarity}, {"mmethod", Priority::MMethod}});
   m.second_pass_local_bound = o.get_double("second_pass_local_bound");
   m.second_pass_seam_refusal = o.get_bool("second_pass_seam_refusal");
   m.second_pass_steps = static_cast<int>(o.get_int("second_pass_steps"));
@@ -83,8 +84,8 @@ MergeOptions merge_options_from(const Options& o) {
 
 json MergeReport::to_json() const {
   json j;
-  j["charts_in"] = charts_in;
-  j["charts_out"] = charts_out;
+  // note: charts in and out, the ARAP distortion and flipped faces after merging are the framework's
+  // figures of every merger (charts_in, charts_out, distortion_arap, flipped_faces): not repeated here.
   j["locked_charts"] = locked_charts;
   j["self_overlapping_charts"] = self_overlapping_charts;
   j["candidate_pairs"] = candidates_initial;
@@ -104,8 +105,6 @@ json MergeReport::to_json() const {
   j["rejected"] = rej;
   j["rejected_total"] = total;
   j["distortion_in"] = distortion_in;
-  j["distortion_out"] = distortion_out;
-  j["flipped_out"] = flipped_out;
   j["optimisation_seconds"] = optimisation_seconds;
   j["check_seconds"] = check_seconds;
   j["mean_free_vertices"] = mean_free_vertices;
@@ -135,8 +134,15 @@ void run_merge_stage(StageContext& ctx, const std::string& stage, const MergeOpt
   for (size_t p = 0; p < mesh.pages.size(); ++p)
     if (mesh.pages[p].width <= 0 || mesh.pages[p].height <= 0)
       throw StageError(stage + ": page " + std::to_string(p) + " has no known size");
+  // note: the planarity weights are the detector's (declared once, by its options); without a
+  // CPI detector the paper's defaults (PlanarityWeights) stay.
+  MergeOptions o = opt;
+  if (ctx.regions.planarity_weights) {
+    const auto& w = *ctx.regions.planarity_weights;
+    o.weights = {w[0], w[1], w[2]};
+  }
   const MergeReport r =
-      run_merges(mesh, *ctx.topology, ctx.atlas, fr, opt, solver, [&](double f) { ctx.step(stage, f); });
+      run_merges(mesh, *ctx.topology, ctx.atlas, fr, o, solver, [&](double f) { ctx.step(stage, f); });
   if (ctx.report) {
     json j = r.to_json();
     for (auto it = j.begin(); it != j.end(); ++it) (*ctx.report)[it.key()] = it.value();

@@ -4,6 +4,7 @@
 #include "texdefrag/core/charts.h"
 #include "texdefrag/core/distortion.h"
 #include "texdefrag/core/topology.h"
+#include "texdefrag/pipeline/pipeline.h"
 #include "texdefrag/stage/registry.h"
 #include "texdefrag/testing/fixtures.h"
 
@@ -101,7 +102,9 @@ struct Run {
     s->set_options(default_options(*info, overrides));
     auto* m = dynamic_cast<Merger*>(s.get());
     ASSERT_NE(m, nullptr);
+    const int charts_in = ctx.atlas.num_charts;
     m->merge(ctx);
+    report_merger_figures(mesh, charts_in, ctx.atlas, report);  // as the pipeline adds them
   }
 };
 

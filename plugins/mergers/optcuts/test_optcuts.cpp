@@ -128,7 +128,7 @@ TEST(OptCuts, FragmentedGridMergesIntoOneChart) {
   EXPECT_EQ(run.ctx.atlas.num_charts, 1);
   EXPECT_EQ(run.report["charts_out"], 1);
   EXPECT_EQ(run.report["merges_accepted"], 95);
-  EXPECT_LT(run.report["distortion_out"].get<double>(), 1e-10);
+  EXPECT_LT(run.report["distortion_arap"].get<double>(), 1e-10);
   test::expect_valid_atlas(run);
   // Texel density kept: the merged chart's UV area equals the input's.
   double a_in = 0, a_out = 0;
@@ -199,7 +199,7 @@ TEST(OptCuts, SecondPassMergesAcrossRegions) {
     EXPECT_EQ(run.report["merges_accepted_second_pass"], 1);
     EXPECT_EQ(run.ctx.atlas.num_charts, 1);
     EXPECT_EQ(run.report["merges_accepted"], 63);  // 64 input charts
-    EXPECT_LT(run.report["distortion_out"].get<double>(), 1e-10);
+    EXPECT_LT(run.report["distortion_arap"].get<double>(), 1e-10);
     test::expect_valid_atlas(run);
   }
 }
@@ -213,7 +213,7 @@ TEST(OptCuts, SecondPassKeepsTheGlobalBound) {
     for (size_t f = 0; f < m.faces.size(); ++f) region[f] = m.corner_position(f, 0).x() < 4 ? 0 : 1;
     test::Run run(std::move(m), region);
     run.merge("mergers.optcuts", {{"second_pass", "across_regions"}, {"global_bound", bound}});
-    EXPECT_LE(run.report["distortion_out"].get<double>(), bound + 1e-12);
+    EXPECT_LE(run.report["distortion_arap"].get<double>(), bound + 1e-12);
     if (bound < 1e-6) {
       EXPECT_EQ(run.report["merges_accepted"], 0);
     }
@@ -240,7 +240,7 @@ TEST(OptCuts, ForcedRejectionRollsBackExactly) {
 TEST(OptCuts, DistortedInputStaysWithinTheBound) {
   test::Run run(test::distorted_fragmented_grid(10, 8, 0.1));
   run.merge("mergers.optcuts", {{"global_bound", 0.01}});
-  const double d = run.report["distortion_out"].get<double>();
+  const double d = run.report["distortion_arap"].get<double>();
   EXPECT_LE(d, 0.01);
   EXPECT_GT(d, 0.0);
   EXPECT_LT(run.ctx.atlas.num_charts, 160 / 2);
@@ -271,7 +271,7 @@ TEST(OptCuts, ChartsOnDifferentPagesMergeWhenCrossPage) {
   const Atlas& at = run.ctx.atlas;
   EXPECT_EQ(at.num_charts, 1);
   // Same texel triangles on both pages: the merged chart is an isometry of every input triangle.
-  EXPECT_LT(run.report["distortion_out"].get<double>(), 1e-10);
+  EXPECT_LT(run.report["distortion_arap"].get<double>(), 1e-10);
   EXPECT_LT(atlas_distortion(run.mesh, at).arap, 1e-10);
   // The chart's page is the page of its larger part (page 1: three quarters of the faces).
   ASSERT_EQ(at.chart_page.size(), 1u);

@@ -21,7 +21,6 @@
 #include "texdefrag/stage/registry.h"
 
 #include <algorithm>
-#include <chrono>
 #include <climits>
 #include <limits>
 #include <map>
@@ -625,7 +624,6 @@ class SquareTetris : public Packer {
   }
 
   void pack(StageContext& ctx) override {
-    const auto t0 = std::chrono::steady_clock::now();
     const std::string name = "packers.square_tetris";
     const CommonSettings s = packing::read_common(options());
     const PackInput in = packing::prepare_charts(ctx, s, name);
@@ -678,8 +676,7 @@ class SquareTetris : public Packer {
           return pack_square_tetris(in, s, order, rects, profiles, width, bound, ctx);
         });
     ctx.step(name, 1.0);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    packing::write_layout(ctx, in, r, ms);
+    packing::write_layout(ctx, in, r);
     if (ctx.report) {
       (*ctx.report)["hole_fills"] = r.hole_fills;
       (*ctx.report)["outline_drops"] = r.outline_drops;

@@ -17,7 +17,6 @@
 #include "texdefrag/stage/registry.h"
 
 #include <algorithm>
-#include <chrono>
 #include <climits>
 
 namespace texdefrag {
@@ -86,7 +85,6 @@ class Tetris : public Packer {
   }
 
   void pack(StageContext& ctx) override {
-    const auto t0 = std::chrono::steady_clock::now();
     const std::string name = "packers.tetris";
     const CommonSettings s = packing::read_common(options());
     const PackInput in = packing::prepare_charts(ctx, s, name);
@@ -102,8 +100,7 @@ class Tetris : public Packer {
           return pack_tetris(in, s, order, profiles, width, bound, ctx);
         });
     ctx.step(name, 1.0);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    packing::write_layout(ctx, in, r, ms);
+    packing::write_layout(ctx, in, r);
   }
 };
 

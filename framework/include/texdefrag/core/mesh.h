@@ -35,6 +35,8 @@ struct Material {
   std::string map_kd;
   /// map_Kd options before the path (e.g. "-bm 1"), kept verbatim.
   std::string map_kd_options;
+  /// The map_Kd's `-clamp on` (clamp-to-edge addressing); false for `-clamp off` or none (repeat).
+  bool clamp = false;
 };
 
 /// A texture page: one image. Pages are numbered 0..pages.size()-1.
@@ -43,6 +45,9 @@ struct Page {
   std::string image_path;  ///< absolute or working-directory-relative path of the image file
   int width = 0;           ///< pixels; 0 until known (the reader fills it from the image header)
   int height = 0;          ///< pixels
+  /// Texture addressing outside [0, 1]: false = repeat (the MTL default, `-clamp off`), true =
+  /// clamp to the edge (`map_Kd -clamp on`). Resampling reads the page this way.
+  bool clamp = false;
 };
 
 struct Face {
@@ -64,6 +69,9 @@ struct TexturedMesh {
   std::vector<Material> materials;
   std::vector<Page> pages;
   std::vector<std::string> groups;  ///< `g`/`o` statements, verbatim (e.g. "g roof")
+  /// Every file the reader read or the mesh references (OBJ, MTLs, page images), as the reader
+  /// resolved them. The write service (io/output_set.h) never writes onto any of them.
+  std::vector<std::string> source_files;
 
   /// Number of triangles.
   size_t num_faces() const { return faces.size(); }

@@ -41,6 +41,9 @@ struct PipelineConfig {
   Options texture;      ///< texture.resample options
   Options output;       ///< writers.obj options
   json effective;       ///< the configuration after overrides and defaults (for the report)
+  /// Files the stages read besides the model (values of input-path options, e.g. a label file):
+  /// protected from every write, as the model's own files are.
+  std::vector<std::string> input_files;
 };
 
 /// Declarations of the framework's own configurable steps (listed by `texdefrag plugins`).
@@ -67,9 +70,17 @@ struct RunOptions {
 };
 
 /// Runs the pipeline. Returns the run report (also written as OUTDIR/<stem>.report.json).
-/// Throws ObjError/ImageError/StageError/ConfigError on failure; never writes partial outputs
-/// under the final names.
+/// Every file, the stages' side outputs included, goes through one OutputSet (io/output_set.h):
+/// the input's files (OBJ, MTLs, pages, input-path options) are never written, the set appears
+/// when the run succeeds, the report last, and two runs into one folder exclude each other.
+/// Throws ObjError/ImageError/StageError/ConfigError/OutputError on failure; never leaves a file
+/// under a final name when it throws.
 json run_pipeline(const PipelineConfig& config, const RunOptions& options);
+
+/// The framework's own figures of a merger's result, as run_pipeline writes them into the merger's
+/// report node: charts_in, charts_out, distortion_arap and flipped_faces (core/distortion.h).
+/// Stages never write these keys (run_pipeline refuses a stage that does).
+void report_merger_figures(const TexturedMesh& mesh, int charts_in, const Atlas& atlas, json& node);
 
 /// Builds the output mesh: same positions, normals, faces and order as `input`; one texcoord per
 /// wedge, normalised by the output page sizes; one material per output page named `page_<i>`

@@ -30,11 +30,15 @@ class Registry {
   /// and '_'), its prefix does not match info.kind, or the name is already registered.
   void add(StageInfo info, const std::string& source);
 
-  /// Loads every module in the default folder and in TEXDEFRAG_PLUGIN_PATH, once. Throws on the first
-  /// broken module or duplicate name.
+  /// Loads every module in the default folder and in TEXDEFRAG_PLUGIN_PATH, once. A `.so` that is
+  /// not a texdefrag module (no `texdefrag_plugin_register` in its dynamic symbols, checked before it
+  /// is loaded) is skipped with a warning on stderr naming it (listed by skipped()). Throws on the
+  /// first broken texdefrag module or duplicate name.
   void load_plugins();
-  /// Loads one module file.
+  /// Loads one module file (it must be a texdefrag module).
   void load_module(const std::string& path);
+  /// Files load_plugins() skipped, with the reason ("FILE: not a texdefrag plugin (...)").
+  const std::vector<std::string>& skipped() const { return skipped_; }
 
   const StageInfo* find(const std::string& name) const;
   /// Creates a stage by name; throws RegistryError with the nearest name suggested.
@@ -51,6 +55,7 @@ class Registry {
   std::map<std::string, Entry> stages_;
   bool loaded_ = false;
   std::string current_module_;
+  std::vector<std::string> skipped_;
 };
 
 }  // namespace texdefrag

@@ -8,12 +8,16 @@
 #include "texdefrag/core/topology.h"
 #include "texdefrag/stage/options.h"
 
+#include <array>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace texdefrag {
+
+class OutputSet;
 
 /// Progress callback: (stage name, fraction in [0,1]). Return false to cancel. Called from the
 /// thread running the stage; the framework rate-limits it to changes.
@@ -33,6 +37,10 @@ struct Cancelled : std::runtime_error {
 struct Regions {
   std::vector<int> face_region;  ///< region per face, -1 for faces outside any region (untextured)
   int num_regions = 0;
+  /// The Comprehensive Planarity Index weights (flatness, compactness, normal: Liu et al.'s w1, w2,
+  /// w3) the detector used, when it uses the CPI. Mergers that rank charts by planarity take these,
+  /// so the weights are declared once, by the detector's options.
+  std::optional<std::array<double, 3>> planarity_weights;
 };
 
 /// Placement of the atlas on output pages, produced by a packer.
@@ -54,10 +62,17 @@ struct StageContext {
   json* report = nullptr;               ///< this stage's node of the run report
   ProgressFn progress;                  ///< never null inside a stage (framework supplies a no-op)
   std::string input_path;               ///< the input OBJ path (for sidecar files), may be empty
-  std::string output_dir;               ///< where outputs go, may be empty (no output)
+  /// The run's write service; null when the run writes nothing (--no-write, tests). Stages never
+  /// open files themselves: they ask output_path() for every side output.
+  OutputSet* outputs = nullptr;
 
   /// Reports progress; throws Cancelled when the callback asks to stop.
   void step(const std::string& stage, double fraction) const;
+  /// Where stage `stage` writes its side output `name` (a plain relative name under the output
+  /// folder, e.g. "regions.obj"); the file appears with the run's other outputs when the run
+  /// succeeds. Throws StageError naming the stage and the file when the run writes no output or
+  /// the write service refuses the name (absolute, '..', an input file...).
+  std::string output_path(const std::string& stage, const std::string& name) const;
 };
 
 struct StageInfo;

@@ -327,7 +327,7 @@ Vec2 place_point(const PackChart& c, const Placement& p, const Vec2& b) {
   return rotate90(b, p.q) + Vec2(static_cast<double>(p.x - c.ox[p.q]), static_cast<double>(p.y - c.oy[p.q]));
 }
 
-void write_layout(StageContext& ctx, const PackInput& in, const PackResult& r, double time_ms) {
+void write_layout(StageContext& ctx, const PackInput& in, const PackResult& r) {
   Layout& L = ctx.layout;
   L.pages = r.sizes;
   L.chart_page.assign(in.charts.size(), -1);
@@ -358,7 +358,6 @@ void write_layout(StageContext& ctx, const PackInput& in, const PackResult& r, d
   rep["charts_exact"] = exact;
   rep["charts_turned_90"] = turned;
   rep["charts_rotated_free"] = free_rot;
-  rep["time_ms"] = time_ms;
 }
 
 }  // namespace texdefrag::packing

@@ -180,8 +180,8 @@ void size_pages(const PackInput& in, const CommonSettings& s, PackResult& r);
 
 /// Writes ctx.layout (pages, chart_page, wedge_uv) and the report node: pages, page_sizes,
 /// packing_efficiency (chart UV area / page area), charts, exact charts, charts turned by 90/180/270,
-/// charts freely rotated, time_ms. Wedges used by no face keep (0, 0).
-void write_layout(StageContext& ctx, const PackInput& in, const PackResult& r, double time_ms);
+/// charts freely rotated (the time is the framework's time_s). Wedges used by no face keep (0, 0).
+void write_layout(StageContext& ctx, const PackInput& in, const PackResult& r);
 
 /// The final texel position of base point `b` of a chart placed with `p`.
 Vec2 place_point(const PackChart& c, const Placement& p, const Vec2& b);
