@@ -13,6 +13,7 @@ CLI::App* add_buildings_command(CLI::App& app, int& exit_code);  // eval/buildin
 // cli/cmd_batch.cpp (docs/batch.md)
 CLI::App* add_tasks_command(CLI::App& app, int& exit_code);  // the task list of a production
 CLI::App* add_batch_command(CLI::App& app, int& exit_code);  // execs tools/batch/texdefrag_batch
+CLI::App* add_report_command(CLI::App& app, int& exit_code); // cli/cmd_report.cpp, eval/report
 }  // namespace texdefrag::cli
 
 #include "texdefrag/pipeline/pipeline.h"

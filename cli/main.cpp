@@ -214,6 +214,9 @@ int main(int argc, char** argv) {
 #ifdef TEXDEFRAG_HAVE_BUILDINGS
   cli::add_buildings_command(app, exit_code);
 #endif
+#ifdef TEXDEFRAG_HAVE_REPORT
+  cli::add_report_command(app, exit_code);
+#endif
 
   cli::add_tasks_command(app, exit_code);
   cli::add_batch_command(app, exit_code);

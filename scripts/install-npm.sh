@@ -11,3 +11,5 @@ if ! command -v npm >/dev/null; then
 fi
 export PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1
 npm ci --no-audit --no-fund --loglevel=error
+# three.js as one classic script for the HTML report (eval/report): tools/node/build/three-bundle.js.
+npm run --silent build-three

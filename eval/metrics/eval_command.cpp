@@ -19,6 +19,10 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
     bool no_texture = false;
     size_t samples = eval::FidelityOptions{}.samples;
     double tolerance = eval::MatchOptions{}.position_tolerance;
+    bool no_appearance = false;
+    int mip_levels = eval::EvalOptions{}.clash_max_level;
+    int render_views = eval::RenderFidelityOptions{}.views;
+    int render_size = eval::RenderFidelityOptions{}.size;
   };
   auto args = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand("eval", "Compare an input model with a defragmented output: charts, seams, "
@@ -43,6 +47,14 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
             return "must be a finite number >= 0, got '" + s + "'";
           },
           "NUMBER >= 0"));
+  sub->add_flag("--no-appearance", args->no_appearance,
+                "skip the appearance measures (texel clashes per MIP level, seam colour, rendered views)");
+  sub->add_option("--mip-levels", args->mip_levels, "highest MIP level of texel clashes and rendered views")
+      ->check(CLI::Range(0, 16));
+  sub->add_option("--render-views", args->render_views, "fixed views of the rendered-view fidelity")
+      ->check(CLI::Range(1, 64));
+  sub->add_option("--render-size", args->render_size, "pixels per side of each rendered view")
+      ->check(CLI::Range(16, 4096));
   sub->callback([args, &exit_code]() {
     try {
       for (const std::string* p : {&args->in, &args->out}) {
@@ -53,6 +65,11 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
       opt.fidelity.samples = args->samples;
       opt.match.position_tolerance = args->tolerance;
       opt.texture = !args->no_texture;
+      opt.appearance = !args->no_appearance;
+      opt.clash_max_level = args->mip_levels;
+      opt.render.max_level = args->mip_levels;
+      opt.render.views = args->render_views;
+      opt.render.size = args->render_size;
       const eval::Comparison c = eval::compare_files(args->in, args->out, opt);
       if (args->json)
         std::cout << eval::to_json(c).dump(2) << "\n";

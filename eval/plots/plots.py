@@ -8,6 +8,7 @@ defragmentation", Remote Sensing), Figures 16-20, from RESULTS/results.csv:
   fig18_distortion.png        ARAP distortion of the UV map (box plots)
   fig19_texture_size.png      per-model relative change of texture megapixels and bytes
   fig20_vertex_replication.png vertex replication V2/V3 before and after, per model
+  fig21_rendered_mip.png      rendered-view PSNR / SSIM against MIP level, input and each configuration
   sweep_<key>.png             medians against the swept value (when a --sweep was run)
 and RESULTS/summary.md: median and mean of every derived metric per configuration, and which
 configuration wins each metric (over the models every configuration succeeded on).
@@ -46,7 +47,18 @@ METRICS = [
     ("lost_faces", -1, "lost faces", 1, ""),
     ("time_s", -1, "time", 1, "s"),
     ("peak_rss_mb", -1, "peak memory", 1, "MiB"),
+    ("clash_fraction_l2_in", 0, "texel clashes at MIP level 2, input", 100, "%"),
+    ("clash_fraction_l2_out", -1, "texel clashes at MIP level 2, output", 100, "%"),
+    ("clash_fraction_l4_out", -1, "texel clashes at MIP level 4, output", 100, "%"),
+    ("seam_colour_in", 0, "seam colour discrepancy, input", 1, ""),
+    ("seam_colour_out", -1, "seam colour discrepancy, output", 1, ""),
+    ("rendered_psnr_l0", +1, "rendered PSNR, MIP level 0", 1, "dB"),
+    ("rendered_psnr_l2", +1, "rendered PSNR, MIP level 2", 1, "dB"),
+    ("rendered_psnr_l4", +1, "rendered PSNR, MIP level 4", 1, "dB"),
+    ("rendered_ssim_l2", +1, "rendered SSIM, MIP level 2", 1, ""),
 ]
+# Rendered-view fidelity per MIP level (docs/eval.md "Appearance"): columns written by eval/bench.
+MIP_LEVELS = range(5)
 DIRECTION = {m[0]: m[1] for m in METRICS}
 
 
@@ -305,6 +317,9 @@ def figures(rows, configs, outdir):
         plt.close(fig)
         written.append("fig20_vertex_replication.png")
 
+    if rendered_mip_figure(plt, rows, configs, out("fig21_rendered_mip.png")):
+        written.append("fig21_rendered_mip.png")
+
     # Sweeps: medians against the swept value, one line per base configuration.
     sweeps = {}
     for r in rows:
@@ -341,6 +356,41 @@ def figures(rows, configs, outdir):
         plt.close(fig)
         written.append(name)
     return written
+
+
+def rendered_mip_figure(plt, rows, configs, path):
+    """Rendered fidelity against MIP level (median over models): PSNR and SSIM of each
+    configuration's output rendered at level L against the input rendered at level 0, and the
+    input's own curve (input at L vs input at 0). False when no record has rendered views."""
+    def curve(config, prefix, what):
+        pts = []
+        for level in MIP_LEVELS:
+            v = [x for x in values(rows, config, f"{prefix}{what}_l{level}") if math.isfinite(x)]
+            if v:
+                pts.append((level, statistics.median(v)))
+        return pts
+    if not any(curve(c, "rendered_", "psnr") for c in configs):
+        return False
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    for ax, what, unit in ((axes[0], "psnr", "PSNR (dB)"), (axes[1], "ssim", "SSIM")):
+        # The input's curve: the same for every configuration (same models), taken from the first.
+        base = next((curve(c, "input_rendered_", what) for c in configs if curve(c, "input_rendered_", what)), [])
+        if base:
+            ax.plot([p[0] for p in base], [p[1] for p in base], color="black", linestyle="--", marker="s", label="input")
+        for c in configs:
+            pts = curve(c, "rendered_", what)
+            if pts:
+                ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=c)
+        ax.set_xlabel("MIP level")
+        ax.set_ylabel(f"median {unit} vs input at level 0")
+        ax.set_xticks(list(MIP_LEVELS))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("Rendered fidelity against MIP level (textured renders, fixed views)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return True
 
 
 def main(argv=None):

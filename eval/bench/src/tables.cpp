@@ -41,6 +41,17 @@ const Derived kDerived[] = {
     {"charts_out", 0},              {"packing_efficiency_out", +1},  {"uv_overlaps_out", -1},
     {"psnr_db", +1},                {"copied_fraction", +1},         {"lost_faces", -1},
     {"time_s", -1},                 {"peak_rss_mb", -1},
+    // Appearance measures (docs/eval.md "Appearance"): clashes at MIP levels 2 and 4, seam colour,
+    // rendered-view PSNR / SSIM per MIP level (output vs input at level 0; input vs itself at 0).
+    {"clash_fraction_l2_in", 0},    {"clash_fraction_l2_out", -1},   {"clash_fraction_l4_in", 0},
+    {"clash_fraction_l4_out", -1},  {"seam_colour_in", 0},           {"seam_colour_out", -1},
+    {"rendered_psnr_l0", +1},       {"rendered_psnr_l1", +1},        {"rendered_psnr_l2", +1},
+    {"rendered_psnr_l3", +1},       {"rendered_psnr_l4", +1},        {"rendered_ssim_l0", +1},
+    {"rendered_ssim_l1", +1},       {"rendered_ssim_l2", +1},        {"rendered_ssim_l3", +1},
+    {"rendered_ssim_l4", +1},       {"input_rendered_psnr_l0", 0},   {"input_rendered_psnr_l1", 0},
+    {"input_rendered_psnr_l2", 0},  {"input_rendered_psnr_l3", 0},   {"input_rendered_psnr_l4", 0},
+    {"input_rendered_ssim_l0", 0},  {"input_rendered_ssim_l1", 0},   {"input_rendered_ssim_l2", 0},
+    {"input_rendered_ssim_l3", 0},  {"input_rendered_ssim_l4", 0},
 };
 
 const char* const kFixedColumns[] = {"config", "base_config", "kind", "sweep_key", "sweep_value",
@@ -104,6 +115,34 @@ int metric_direction(const std::string& name) {
   return 0;
 }
 
+namespace {
+
+/// The appearance columns of derived_metrics (null when the record has no such measure).
+void appearance_metrics(const json& r, json& d) {
+  for (const char* side : {"in", "out"}) {
+    const std::string which = side[0] == 'i' ? "input" : "output";
+    for (int level : {2, 4}) {
+      const std::string p = "/eval/texel_clashes/" + which + "/" + std::to_string(level) + "/fraction";
+      d["clash_fraction_l" + std::to_string(level) + "_" + side] = opt(num_at(r, p.c_str()));
+    }
+    d[std::string("seam_colour_") + side] = opt(num_at(r, ("/eval/seam_colour/" + which + "/mean").c_str()));
+  }
+  for (int level = 0; level <= 4; ++level) {
+    const std::string base = "/eval/rendered/levels/" + std::to_string(level) + "/";
+    const bool rendered = num_at(r, (base + "pixels").c_str()) > 0;
+    for (const char* who : {"output", "input"}) {
+      // PSNR of identical renders is +infinity (null in the metrics report).
+      double psnr = num_at(r, (base + who + "_psnr_db").c_str());
+      if (std::isnan(psnr) && rendered) psnr = kInf;
+      const std::string prefix = who[0] == 'o' ? "rendered_" : "input_rendered_";
+      d[prefix + "psnr_l" + std::to_string(level)] = std::isnan(psnr) ? json(nullptr) : json(psnr);
+      d[prefix + "ssim_l" + std::to_string(level)] = opt(num_at(r, (base + who + "_ssim").c_str()));
+    }
+  }
+}
+
+}  // namespace
+
 json derived_metrics(const json& r) {
   json d = json::object();
   const double nan = std::nan("");
@@ -143,6 +182,7 @@ json derived_metrics(const json& r) {
       }
   }
   d["peak_rss_mb"] = opt(std::isnan(peak) ? nan : peak / (1024.0 * 1024.0));
+  appearance_metrics(r, d);
   return d;
 }
 

@@ -201,11 +201,11 @@ std::string write_chart_render(const std::string& obj_path, const std::string& p
   return png_path;
 }
 
-std::string write_region_render(const std::string& obj_path, const std::string& config_path,
-                                const std::vector<std::string>& overrides, const std::string& png_path, int size) {
+std::vector<int> detect_regions(const TexturedMesh& mesh_in, const std::string& config_path,
+                                const std::vector<std::string>& overrides, const std::string& input_path) {
   const PipelineConfig cfg = load_config(config_path, overrides);
-  if (cfg.detector.type == "detectors.none") return "";
-  TexturedMesh mesh = read_obj(obj_path);
+  if (cfg.detector.type == "detectors.none") return {};
+  TexturedMesh mesh = mesh_in;
   const Topology topo = build_topology(mesh);
   const ChartSet charts = build_charts(mesh, topo);
   StageContext ctx;
@@ -216,7 +216,7 @@ std::string write_region_render(const std::string& obj_path, const std::string& 
   json report = json::object();
   ctx.report = &report;
   ctx.progress = [](const std::string&, double) { return true; };
-  ctx.input_path = obj_path;
+  ctx.input_path = input_path;
   auto stage = Registry::instance().create(cfg.detector.type);
   stage->set_options(cfg.detector.options);
   auto* detector = dynamic_cast<Detector*>(stage.get());
@@ -224,9 +224,17 @@ std::string write_region_render(const std::string& obj_path, const std::string& 
   detector->detect(ctx);
   if (ctx.regions.face_region.size() != mesh.faces.size())
     throw BenchError(cfg.detector.type + ": regions do not cover every face");
+  return ctx.regions.face_region;
+}
+
+std::string write_region_render(const std::string& obj_path, const std::string& config_path,
+                                const std::vector<std::string>& overrides, const std::string& png_path, int size) {
+  const TexturedMesh mesh = read_obj(obj_path);
+  const std::vector<int> regions = detect_regions(mesh, config_path, overrides, obj_path);
+  if (regions.empty()) return "";
   const fs::path folder = fs::path(png_path).parent_path();
   if (!folder.empty()) fs::create_directories(folder);
-  write_image(png_path, render_3d(mesh, ctx.regions.face_region, size), ImageFormat::Png);
+  write_image(png_path, render_3d(mesh, regions, size), ImageFormat::Png);
   return png_path;
 }
 

@@ -4,6 +4,7 @@
 // fidelity at surface samples (PSNR; fraction copied without resampling).
 #include "texdefrag/core/charts.h"
 #include "texdefrag/core/distortion.h"
+#include "texdefrag/eval/appearance.h"
 #include "texdefrag/eval/metrics.h"
 #include "texdefrag/io/obj.h"
 
@@ -37,26 +38,6 @@ double uv_area(const Vec2 t[3]) {
 void texel_rgb(const Image& img, int ix, int iy, double rgb[3]) {
   const uint8_t* p = img.at(ix, img.height - 1 - iy);
   for (int c = 0; c < 3; ++c) rgb[c] = p[img.channels >= 3 ? c : 0];
-}
-
-/// Bilinear colour at texel coordinates (x, y), y up, texel centres at half-integers, clamped at
-/// the image border.
-void bilinear_rgb(const Image& img, double x, double y, double rgb[3]) {
-  const double fx = x - 0.5, fr = static_cast<double>(img.height) - y - 0.5;  // column, row (top down)
-  const double x0 = std::floor(fx), r0 = std::floor(fr);
-  const double tx = fx - x0, tr = fr - r0;
-  const auto clampi = [](double v, int hi) { return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(hi))); };
-  const int c0 = clampi(x0, img.width - 1), c1 = clampi(x0 + 1, img.width - 1);
-  const int w0 = clampi(r0, img.height - 1), w1 = clampi(r0 + 1, img.height - 1);
-  const int ch = img.channels;
-  const uint8_t* p00 = img.at(c0, w0);
-  const uint8_t* p10 = img.at(c1, w0);
-  const uint8_t* p01 = img.at(c0, w1);
-  const uint8_t* p11 = img.at(c1, w1);
-  for (int c = 0; c < 3; ++c) {
-    const int k = ch >= 3 ? c : 0;
-    rgb[c] = (1 - tr) * ((1 - tx) * p00[k] + tx * p10[k]) + tr * ((1 - tx) * p01[k] + tx * p11[k]);
-  }
 }
 
 /// The 8 symmetries of the texel grid: rotations by multiples of 90 degrees, then the same
@@ -265,11 +246,23 @@ Comparison compare(const TexturedMesh& in_mesh, const TexturedMesh& out_mesh, co
   const TexturedMesh out = canonical_pages(out_mesh);
   c.match = match_faces(in, out, options.match);
   c.distortion = uv_distortion(in, out, c.match);
+  if (options.appearance) {
+    c.clashes_input = texel_clashes(in, options.clash_max_level);
+    c.clashes_output = texel_clashes(out, options.clash_max_level);
+    c.has_clashes = true;
+  }
   if (options.texture) {
     const std::vector<Image> ip = load_pages(in);
     const std::vector<Image> op = load_pages(out);
     c.fidelity = texture_fidelity(in, ip, out, op, c.match, options.fidelity);
     c.has_fidelity = true;
+    if (options.appearance) {
+      c.seam_colour_input = seam_colour(in, ip);
+      c.seam_colour_output = seam_colour(out, op);
+      c.has_seam_colour = true;
+      c.rendered = rendered_fidelity(in, ip, out, op, options.render);
+      c.has_rendered = true;
+    }
   }
   return c;
 }

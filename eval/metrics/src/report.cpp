@@ -77,6 +77,35 @@ nlohmann::json to_json(const ModelMetrics& m) {
   return j;
 }
 
+/// The appearance measures (appearance.h) of a comparison into `j`: texel_clashes, seam_colour,
+/// rendered (null when not computed).
+static void appearance_json(const Comparison& c, nlohmann::json& j) {
+  using json = nlohmann::json;
+  auto clashes = [](const std::vector<ClashLevel>& v) {
+    json a = json::array();
+    for (const ClashLevel& l : v)
+      a.push_back({{"level", l.level}, {"texels", l.texels}, {"used", l.used}, {"clashes", l.clashes}, {"fraction", num(l.fraction)}});
+    return a;
+  };
+  j["texel_clashes"] = c.has_clashes ? json{{"input", clashes(c.clashes_input)}, {"output", clashes(c.clashes_output)}} : json(nullptr);
+  auto seam = [](const SeamColourMetrics& s) {
+    return json{{"seam_edges", s.seam_edges}, {"samples", s.samples}, {"length_3d", num(s.length_3d)},
+                {"mean", num(s.mean)}, {"rms", num(s.rms)}, {"max", num(s.max)}};
+  };
+  j["seam_colour"] = c.has_seam_colour ? json{{"input", seam(c.seam_colour_input)}, {"output", seam(c.seam_colour_output)}} : json(nullptr);
+  if (!c.has_rendered) {
+    j["rendered"] = nullptr;
+    return;
+  }
+  json levels = json::array();
+  for (const RenderLevel& l : c.rendered.levels)
+    levels.push_back({{"level", l.level}, {"pixels", l.pixels},
+                      {"input_psnr_db", num(l.input_psnr_db)}, {"input_ssim", num(l.input_ssim)},
+                      {"output_psnr_db", num(l.output_psnr_db)}, {"output_ssim", num(l.output_ssim)},
+                      {"pair_psnr_db", num(l.pair_psnr_db)}, {"pair_ssim", num(l.pair_ssim)}});
+  j["rendered"] = {{"views", c.rendered.views}, {"size", c.rendered.size}, {"levels", levels}};
+}
+
 nlohmann::json to_json(const Comparison& c) {
   nlohmann::json j;
   j["input"] = to_json(c.input);
@@ -135,6 +164,7 @@ nlohmann::json to_json(const Comparison& c) {
   } else {
     j["fidelity"] = nullptr;
   }
+  appearance_json(c, j);
   return j;
 }
 
@@ -162,6 +192,24 @@ std::string summary(const Comparison& c) {
     const std::string psnr = std::isfinite(f.psnr_db) ? fmt("%.2f dB", f.psnr_db) : std::string("inf (identical)");
     s += fmt("fidelity  PSNR %s  over %zu samples on %zu faces  copied %.1f%%  rigid faces %.1f%% of area\n",
              psnr.c_str(), f.samples, f.faces, 100.0 * f.copied_fraction, 100.0 * f.rigid_fraction);
+  }
+  if (c.has_clashes) {
+    s += "texel clashes (input -> output, share of used texels)";
+    for (size_t l = 0; l < c.clashes_input.size() && l < c.clashes_output.size(); ++l)
+      s += fmt("  L%zu %.1f%% -> %.1f%%", l, 100.0 * c.clashes_input[l].fraction, 100.0 * c.clashes_output[l].fraction);
+    s += "\n";
+  }
+  if (c.has_seam_colour)
+    s += fmt("seam colour  mean %.2f -> %.2f  rms %.2f -> %.2f (RGB levels, %zu -> %zu seam edges)\n",
+             c.seam_colour_input.mean, c.seam_colour_output.mean, c.seam_colour_input.rms, c.seam_colour_output.rms,
+             c.seam_colour_input.seam_edges, c.seam_colour_output.seam_edges);
+  if (c.has_rendered) {
+    s += fmt("rendered (%d views, %d px; PSNR vs input at L0: input / output; SSIM output)", c.rendered.views, c.rendered.size);
+    for (const RenderLevel& l : c.rendered.levels) {
+      auto db = [](double v) { return std::isfinite(v) ? fmt("%.1f", v) : std::string("inf"); };
+      s += fmt("  L%d %s/%s %.3f", l.level, db(l.input_psnr_db).c_str(), db(l.output_psnr_db).c_str(), l.output_ssim);
+    }
+    s += "\n";
   }
   return s;
 }

@@ -183,6 +183,12 @@ Image render_3d(const TexturedMesh& mesh, const std::vector<int>& face_colour, i
 /// Returns png_path. Throws ObjError/ImageError naming the file.
 std::string write_chart_render(const std::string& obj_path, const std::string& png_path, int size = 1024);
 
+/// Runs the configuration's detector on `mesh` (as read from `input_path`) in this process and
+/// returns its region per face; empty when the detector is detectors.none.
+/// Throws ConfigError/StageError/BenchError.
+std::vector<int> detect_regions(const TexturedMesh& mesh, const std::string& config_path,
+                                const std::vector<std::string>& overrides, const std::string& input_path);
+
 /// Runs the configuration's detector on the model in this process and writes render_3d coloured by
 /// region to `png_path`. Returns "" (writes nothing) when the detector is detectors.none.
 /// Throws ConfigError/StageError/ObjError/BenchError.

@@ -15,6 +15,7 @@
 
 #include "texdefrag/core/mesh.h"
 #include "texdefrag/core/topology.h"
+#include "texdefrag/eval/appearance.h"
 #include "texdefrag/io/image.h"
 
 #include <nlohmann/json.hpp>
@@ -182,8 +183,16 @@ std::vector<Image> load_pages(const TexturedMesh& mesh);
 struct EvalOptions {
   MatchOptions match;
   FidelityOptions fidelity;
-  /// Compute texture fidelity (reads every page image); when false `fidelity` stays zero.
+  /// Compute texture fidelity (reads every page image); when false `fidelity` stays zero and the
+  /// image-based appearance measures (seam colour, rendered views) are skipped too.
   bool texture = true;
+  /// Appearance measures (appearance.h): texel clashes per MIP level (needs no image), seam colour
+  /// discrepancy and rendered-view fidelity (need the images). False skips all three.
+  bool appearance = true;
+  /// Texel clashes at MIP levels 0..clash_max_level (>= 0).
+  int clash_max_level = 4;
+  /// Views, size and MIP levels of the rendered-view fidelity.
+  RenderFidelityOptions render;
 };
 
 /// Everything eval reports for one input/output pair.
@@ -194,6 +203,12 @@ struct Comparison {
   DistortionMetrics distortion;
   bool has_fidelity = false;
   FidelityMetrics fidelity;
+  bool has_clashes = false;                           ///< EvalOptions::appearance
+  std::vector<ClashLevel> clashes_input, clashes_output;
+  bool has_seam_colour = false;                       ///< appearance and texture
+  SeamColourMetrics seam_colour_input, seam_colour_output;
+  bool has_rendered = false;                          ///< appearance and texture
+  RenderFidelity rendered;
 };
 
 /// Compares two meshes already in memory. Pages are canonicalised; images are read from the

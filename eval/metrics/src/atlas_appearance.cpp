@@ -1,0 +1,168 @@
+// Atlas measures under MIP-mapping and across seams (docs/eval.md, "Appearance"): texel clashes
+// per MIP level (TexMetro's "texel clashes": a MIP texel whose box-filter footprint mixes two
+// charts, or a chart and gutter, bleeds one into the other when the texture is minified) and the
+// colour discrepancy across 3D seams.
+#include "texdefrag/core/charts.h"
+#include "texdefrag/core/topology.h"
+#include "texdefrag/eval/appearance.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace texdefrag::eval {
+namespace {
+
+constexpr int kGutter = -1;  // no chart covers the texel (or its footprint)
+constexpr int kMixed = -2;   // two charts, or a chart and gutter
+
+/// Level-0 owner map of one page: chart of the triangle containing each texel centre.
+struct OwnerMap {
+  int width = 0, height = 0;
+  std::vector<int> owner;  // image rows (row 0 at the top, v = 1), so MIP blocks align with the image's
+};
+
+/// True when the edge a -> b of a counter-clockwise triangle owns centres lying exactly on it
+/// (top-left rule: an edge going down, or a horizontal edge going left, in y-up coordinates).
+bool owns_edge(const Vec2& a, const Vec2& b) {
+  const Vec2 d = b - a;
+  return d.y() < 0 || (d.y() == 0 && d.x() < 0);
+}
+
+void rasterise_chart_triangle(OwnerMap& m, std::array<Vec2, 3> t, int chart) {
+  double area = (t[1] - t[0]).x() * (t[2] - t[0]).y() - (t[1] - t[0]).y() * (t[2] - t[0]).x();
+  if (area == 0 || !std::isfinite(area)) return;
+  if (area < 0) std::swap(t[1], t[2]), area = -area;
+  const double x0 = std::min({t[0].x(), t[1].x(), t[2].x()}), x1 = std::max({t[0].x(), t[1].x(), t[2].x()});
+  const double y0 = std::min({t[0].y(), t[1].y(), t[2].y()}), y1 = std::max({t[0].y(), t[1].y(), t[2].y()});
+  const int ix0 = std::max(0, static_cast<int>(std::floor(x0 - 0.5))), ix1 = std::min(m.width - 1, static_cast<int>(std::ceil(x1)));
+  const int iy0 = std::max(0, static_cast<int>(std::floor(y0 - 0.5))), iy1 = std::min(m.height - 1, static_cast<int>(std::ceil(y1)));
+  bool owns[3];
+  for (int k = 0; k < 3; ++k) owns[k] = owns_edge(t[static_cast<size_t>(k)], t[static_cast<size_t>((k + 1) % 3)]);
+  for (int y = iy0; y <= iy1; ++y)
+    for (int x = ix0; x <= ix1; ++x) {
+      const Vec2 c(x + 0.5, y + 0.5);
+      bool inside = true;
+      for (int k = 0; k < 3 && inside; ++k) {
+        const Vec2& a = t[static_cast<size_t>(k)];
+        const Vec2& b = t[static_cast<size_t>((k + 1) % 3)];
+        const double e = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+        inside = e > 0 || (e == 0 && owns[k]);
+      }
+      if (!inside) continue;
+      int& o = m.owner[static_cast<size_t>(m.height - 1 - y) * static_cast<size_t>(m.width) + static_cast<size_t>(x)];
+      if (o == kGutter) o = chart;
+      else if (o != chart) o = kMixed;
+    }
+}
+
+/// The next MIP level's footprint states: a texel is uniform when its (up to) 2x2 children are.
+OwnerMap coarser(const OwnerMap& a) {
+  OwnerMap b;
+  b.width = (a.width + 1) / 2, b.height = (a.height + 1) / 2;
+  b.owner.assign(static_cast<size_t>(b.width) * static_cast<size_t>(b.height), kGutter);
+  for (int y = 0; y < b.height; ++y)
+    for (int x = 0; x < b.width; ++x) {
+      int v = a.owner[static_cast<size_t>(2 * y) * static_cast<size_t>(a.width) + static_cast<size_t>(2 * x)];
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          const int sx = 2 * x + dx, sy = 2 * y + dy;
+          if (sx >= a.width || sy >= a.height) continue;
+          const int w = a.owner[static_cast<size_t>(sy) * static_cast<size_t>(a.width) + static_cast<size_t>(sx)];
+          if (w != v) v = kMixed;
+        }
+      b.owner[static_cast<size_t>(y) * static_cast<size_t>(b.width) + static_cast<size_t>(x)] = v;
+    }
+  return b;
+}
+
+void count_level(const OwnerMap& m, ClashLevel& l) {
+  l.texels += m.owner.size();
+  for (int o : m.owner) {
+    if (o != kGutter) ++l.used;
+    if (o == kMixed) ++l.clashes;
+  }
+}
+
+}  // namespace
+
+std::vector<ClashLevel> texel_clashes(const TexturedMesh& mesh, int max_level) {
+  if (max_level < 0) throw std::invalid_argument("texel_clashes: max_level must be >= 0");
+  const Topology topo = build_topology(mesh);
+  const ChartSet charts = build_charts(mesh, topo);
+  std::vector<ClashLevel> levels(static_cast<size_t>(max_level) + 1);
+  for (int l = 0; l <= max_level; ++l) levels[static_cast<size_t>(l)].level = l;
+  std::vector<std::vector<size_t>> faces_of_page(mesh.pages.size());
+  for (size_t f = 0; f < mesh.faces.size(); ++f)
+    if (mesh.faces[f].page != kNoPage) faces_of_page[static_cast<size_t>(mesh.faces[f].page)].push_back(f);
+  for (size_t p = 0; p < mesh.pages.size(); ++p) {
+    if (faces_of_page[p].empty()) continue;
+    const Page& pg = mesh.pages[p];
+    if (pg.width <= 0 || pg.height <= 0)
+      throw std::invalid_argument("texel_clashes: page " + std::to_string(p) + " ('" + pg.image_path + "') has no known size");
+    OwnerMap m;
+    m.width = pg.width, m.height = pg.height;
+    m.owner.assign(static_cast<size_t>(m.width) * static_cast<size_t>(m.height), kGutter);
+    for (size_t f : faces_of_page[p])
+      rasterise_chart_triangle(m, {mesh.corner_texel(f, 0), mesh.corner_texel(f, 1), mesh.corner_texel(f, 2)},
+                               charts.atlas.face_chart[f]);
+    for (int l = 0; l <= max_level; ++l) {
+      if (l > 0) m = coarser(m);
+      count_level(m, levels[static_cast<size_t>(l)]);
+    }
+  }
+  for (ClashLevel& l : levels)
+    l.fraction = l.used ? static_cast<double>(l.clashes) / static_cast<double>(l.used) : 0.0;
+  return levels;
+}
+
+SeamColourMetrics seam_colour(const TexturedMesh& mesh, const std::vector<Image>& pages) {
+  if (pages.size() != mesh.pages.size()) throw std::invalid_argument("seam_colour: one image per page expected");
+  const Topology topo = build_topology(mesh);
+  SeamColourMetrics r;
+  double weight = 0, sum = 0, sq = 0;
+  for (const Edge& e : topo.edges) {
+    if (e.num_faces != 2) continue;
+    const EdgeIncidence& x = topo.edge_faces[static_cast<size_t>(e.first_incidence)];
+    const EdgeIncidence& y = topo.edge_faces[static_cast<size_t>(e.first_incidence) + 1];
+    const size_t f = static_cast<size_t>(x.face), g = static_cast<size_t>(y.face);
+    if (mesh.faces[f].page == kNoPage || mesh.faces[g].page == kNoPage) continue;
+    if (topo.face_degenerate[f] || topo.face_degenerate[g]) continue;
+    if (uv_continuous(mesh, topo, x.face, x.local, y.face, y.local)) continue;
+    // Corners of both faces at the edge's welded vertices a and b.
+    auto corner_at = [&](size_t face, int vertex) {
+      for (int k = 0; k < 3; ++k)
+        if (topo.face_vertex[face][static_cast<size_t>(k)] == vertex) return k;
+      return -1;
+    };
+    const int fa = corner_at(f, e.a), fb = corner_at(f, e.b), ga = corner_at(g, e.a), gb = corner_at(g, e.b);
+    if (fa < 0 || fb < 0 || ga < 0 || gb < 0) continue;
+    const Vec2 uf0 = mesh.corner_texel(f, fa), uf1 = mesh.corner_texel(f, fb);
+    const Vec2 ug0 = mesh.corner_texel(g, ga), ug1 = mesh.corner_texel(g, gb);
+    const double len3 = (mesh.corner_position(f, fa) - mesh.corner_position(f, fb)).norm();
+    const double texels = std::max((uf1 - uf0).norm(), (ug1 - ug0).norm());
+    const int n = std::isfinite(texels) ? std::clamp(static_cast<int>(std::ceil(texels)), 1, 64) : 1;
+    ++r.seam_edges;
+    r.length_3d += len3;
+    const Image& pf = pages[static_cast<size_t>(mesh.faces[f].page)];
+    const Image& pgi = pages[static_cast<size_t>(mesh.faces[g].page)];
+    for (int i = 0; i < n; ++i) {
+      const double t = (i + 0.5) / n;
+      const Vec2 a = uf0 + t * (uf1 - uf0), b = ug0 + t * (ug1 - ug0);
+      double ca[3], cb[3];
+      bilinear_rgb(pf, a.x(), a.y(), ca);
+      bilinear_rgb(pgi, b.x(), b.y(), cb);
+      const double d = std::sqrt((ca[0] - cb[0]) * (ca[0] - cb[0]) + (ca[1] - cb[1]) * (ca[1] - cb[1]) +
+                                 (ca[2] - cb[2]) * (ca[2] - cb[2]));
+      const double w = len3 / n;
+      weight += w, sum += w * d, sq += w * d * d;
+      r.max = std::max(r.max, d);
+      ++r.samples;
+    }
+  }
+  if (weight > 0) r.mean = sum / weight, r.rms = std::sqrt(sq / weight);
+  return r;
+}
+
+}  // namespace texdefrag::eval
