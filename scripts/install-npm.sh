@@ -10,6 +10,10 @@ if ! command -v npm >/dev/null; then
   exit 1
 fi
 export PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1
-npm ci --no-audit --no-fund --loglevel=error
+# note: --ignore-scripts, then esbuild's own hook only: 3d-tiles-tools' dependency better-sqlite3
+# would otherwise compile SQLite from source (minutes on 2 cores; its prebuilt binary comes from
+# GitHub, not the npm registry), and the b3dm/GLB commands the tests run never load it.
+npm ci --no-audit --no-fund --loglevel=error --ignore-scripts
+npm rebuild esbuild --no-audit --no-fund --loglevel=error
 # three.js as one classic script for the HTML report (eval/report): tools/node/build/three-bundle.js.
 npm run --silent build-three
