@@ -2,6 +2,7 @@
 #include "texdefrag/io/model_format.h"
 
 #include "texdefrag/io/jpeg_quality.h"
+#include "texdefrag/io/gltf_format.h"
 #include "texdefrag/io/obj_format.h"
 #include "texdefrag/io/osgb.h"
 
@@ -28,6 +29,8 @@ const std::vector<const ModelFormat*>& model_formats() {
   static const ObjFormat obj;
   static const OsgbFormat osgb;
   static const std::vector<const ModelFormat*> all = {&obj, &osgb};
+  static const GltfFormat gltf;
+  static const std::vector<const ModelFormat*> all = {&obj, &gltf};
   return all;
 }
 

@@ -69,7 +69,13 @@ const StageInfo& writer_stage_info() {
        opt_bool("match_input_quality", true,
                 "JPEG pages take the quality estimated from the input JPEG pages' quantisation tables"),
        opt_string("name", "", "Output file stem; empty keeps the input's stem"),
-       opt_bool("write_report", true, "Write <stem>.report.json beside the output")});
+       opt_bool("write_report", true, "Write <stem>.report.json beside the output"),
+       opt_enum("draco", "none", {"none", "lossless", "quantized"},
+                "glTF output: Draco-compress rewritten primitives; 'lossless' keeps positions bit-identical, "
+                "'quantized' is exact only for Draco-quantised inputs (docs/io.md)"),
+       opt_int("draco_position_bits", 16, "glTF output.draco=quantized: position bits for inputs not Draco-quantised").range(8, 30),
+       opt_int("draco_texcoord_bits", 16, "glTF output.draco=quantized: texture coordinate bits").range(8, 30),
+       opt_int("draco_generic_bits", 16, "glTF output.draco=quantized: bits of other float attributes").range(8, 30)});
   return info;
 }
 

@@ -434,9 +434,10 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
 
   if (options.write_output) {
     timed(report, "write", [&](json& node) {
-      const PageWriteOptions po = choose_page_options(model, config.output.get_string("image_format"),
-                                                      static_cast<int>(config.output.get_int("jpeg_quality")),
-                                                      config.output.get_bool("match_input_quality"));
+      PageWriteOptions po = choose_page_options(model, config.output.get_string("image_format"),
+                                                static_cast<int>(config.output.get_int("jpeg_quality")),
+                                                config.output.get_bool("match_input_quality"));
+      po.output_options = config.output.values();
       const std::string ext = po.format == ImageFormat::Jpeg ? "jpg" : "png";
       TexturedMesh out = make_output_mesh(mesh, ctx.atlas, ctx.layout, stem, ext, options.output_dir);
       const WriteResult wr = format.write(model, out, out_pages, stem, po, *outputs);

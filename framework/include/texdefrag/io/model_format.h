@@ -83,6 +83,9 @@ struct LoadedModel {
 struct PageWriteOptions {
   ImageFormat format = ImageFormat::Png;
   int jpeg_quality = 95;  ///< [1, 100], used for Jpeg
+  /// The validated `output` section of the configuration, for format-specific keys (e.g. the glTF
+  /// writer's output.draco); empty object when not given.
+  json output_options = json::object();
 };
 
 /// What a writer wrote.
