@@ -3,6 +3,8 @@
 // (0 ok, 1 failure, 2 usage or configuration error).
 #pragma once
 
+#include "texdefrag/pipeline/pipeline.h"
+
 #include <CLI/CLI.hpp>
 
 namespace texdefrag::cli {
@@ -14,6 +16,9 @@ CLI::App* add_buildings_command(CLI::App& app, int& exit_code);  // eval/buildin
 CLI::App* add_tasks_command(CLI::App& app, int& exit_code);  // the task list of a production
 CLI::App* add_batch_command(CLI::App& app, int& exit_code);  // execs tools/batch/texdefrag_batch
 CLI::App* add_report_command(CLI::App& app, int& exit_code); // cli/cmd_report.cpp, eval/report
+/// `run` on a 3D Tiles tileset JSON (cli/run_tileset.cpp). Returns the exit code.
+int run_tileset_cli(const PipelineConfig& config, const std::string& tileset, const std::string& output_dir,
+                    const ProgressFn& progress, bool quiet, bool print_summary);
 }  // namespace texdefrag::cli
 
 #include "texdefrag/pipeline/pipeline.h"

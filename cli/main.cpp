@@ -5,6 +5,7 @@
 
 #include "texdefrag/io/image.h"
 #include "texdefrag/io/obj.h"
+#include "texdefrag/io/tiles3d.h"
 #include "texdefrag/pipeline/pipeline.h"
 #include "texdefrag/production/production.h"
 
@@ -112,6 +113,7 @@ int main(int argc, char** argv) {
   auto* run = app.add_subcommand("run", "Run a pipeline configuration on one model");
   run->add_option("--config,-c", config_path, "Pipeline configuration (JSON)")->required();
   run->add_option("input", input, "Input model (OBJ, OSGB) or production folder (docs/production.md)")->required();
+  run->add_option("input", input, "Input model (OBJ, glTF/GLB) or 3D Tiles tileset JSON")->required();
   run->add_option("-o,--output", output_dir, "Output folder (created; must not be the input's folder)");
   run->add_option("--set", sets, "Override an option: SECTION.OPTION=VALUE or STAGE.OPTION=VALUE (repeatable)");
   run->add_flag("--quiet,-q", quiet, "No progress bar and no summary line");
@@ -129,6 +131,7 @@ int main(int argc, char** argv) {
       }
       if (is_production(input))
         return cli::run_production_command(cfg, input, output_dir, allow_missing, quiet, make_progress(quiet));
+      if (is_tileset(input)) return cli::run_tileset_cli(cfg, input, output_dir, make_progress(quiet), quiet, print_report);
       RunOptions ro;
       ro.input = input;
       ro.output_dir = output_dir;

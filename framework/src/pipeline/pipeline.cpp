@@ -300,12 +300,12 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
       throw StageError("output folder " + options.output_dir + " is the input's folder; choose another so no input file can be overwritten");
   }
 
-  const ModelFormat& format = format_for_input(options.input);
+  const ModelFormat& format = options.format ? *options.format : format_for_input(options.input);
   LoadedModel model;
   TexturedMesh& mesh = model.mesh;
   timed(report, "read", [&](json& node) {
     progress("read", 0);
-    model = format.read(options.input);
+    model = options.model ? *options.model : format.read(options.input);
     node["format"] = format.name();
     if (!model.missing_files.empty()) {
       if (!options.allow_missing_children)
@@ -441,6 +441,14 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
       const std::string ext = po.format == ImageFormat::Jpeg ? "jpg" : "png";
       TexturedMesh out = make_output_mesh(mesh, ctx.atlas, ctx.layout, stem, ext, options.output_dir);
       const WriteResult wr = format.write(model, out, out_pages, stem, po, *outputs);
+      WriteResult wr;
+      if (options.write) {
+        wr = options.write(model, out, out_pages, po);
+      } else {
+        OutputSet files(options.output_dir, model.input_files, options.input);
+        wr = format.write(model, out, out_pages, stem, po, files);
+        files.commit();
+      }
       node["format"] = format.name();
       node["image_format"] = ext == "jpg" ? "jpeg" : "png";
       if (po.format == ImageFormat::Jpeg) node["jpeg_quality"] = po.jpeg_quality;
@@ -468,6 +476,8 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     }
     outputs->commit();
   }
+  if (options.write_output && !options.write && config.output.get_bool("write_report"))
+    write_file_atomic((fs::path(options.output_dir) / (stem + ".report.json")).string(), report.dump(2) + "\n");
   return report;
 }
 

@@ -14,9 +14,12 @@
 // ("packer.gutter: = -1 outside [0, 64]") and all errors are reported together.
 #pragma once
 
+#include "texdefrag/io/model_format.h"
 #include "texdefrag/stage/registry.h"
 #include "texdefrag/stage/stage.h"
 
+#include <functional>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -67,6 +70,15 @@ struct RunOptions {
   /// naming it and its parent; true: listed in the report's read node (`missing_files`) and the
   /// model is processed (for pyramids delivered without their finest level).
   bool allow_missing_children = false;
+  /// A model already read (e.g. several glTF files sharing one atlas, read as one): when set, the
+  /// pipeline does not read `input` (still used for the report and the output stem) and `format`
+  /// must be the format that read it.
+  std::shared_ptr<const LoadedModel> model;
+  const ModelFormat* format = nullptr;
+  /// When set, writes the output instead of format.write into its own OutputSet under output_dir,
+  /// and the report file is left to the caller (a production writes every tile into one set).
+  std::function<WriteResult(const LoadedModel&, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
+                            const PageWriteOptions&)> write;
 };
 
 /// Runs the pipeline. Returns the run report (also written as OUTDIR/<stem>.report.json).

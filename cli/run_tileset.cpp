@@ -1,0 +1,34 @@
+// `texdefrag run` on a 3D Tiles tileset (io/tiles3d.h): every content of every level, one report
+// per model plus a summary, the same layout under -o.
+#include "commands.h"
+
+#include "texdefrag/io/tiles3d.h"
+
+#include <cstdio>
+#include <iostream>
+
+namespace texdefrag::cli {
+
+int run_tileset_cli(const PipelineConfig& config, const std::string& tileset, const std::string& output_dir,
+                    const ProgressFn& progress, bool quiet, bool print_summary) {
+  TilesetRunOptions o;
+  o.tileset = tileset;
+  o.output_dir = output_dir;
+  o.progress = progress;
+  const json summary = run_tileset(config, o);
+  if (print_summary) std::cout << summary.dump(2) << "\n";
+  if (!quiet) {
+    size_t cin = 0, cout_ = 0;
+    for (const auto& m : summary["models"]) {
+      cin += m["charts_in"].get<size_t>();
+      cout_ += m["charts_out"].get<size_t>();
+    }
+    std::fprintf(stderr, "%s: %zu tilesets, %zu contents in %zu models, %zu faces, %zu charts => %zu charts, page bytes %zu => %zu\n",
+                 tileset.c_str(), summary["tilesets"].get<size_t>(), summary["contents"].get<size_t>(), summary["models"].size(),
+                 summary["faces"].get<size_t>(), cin, cout_, summary["page_bytes_in"].get<size_t>(),
+                 summary["page_bytes_out"].get<size_t>());
+  }
+  return 0;
+}
+
+}  // namespace texdefrag::cli

@@ -1,0 +1,84 @@
+// 3D Tiles in and out (docs/io.md, "3D Tiles"): a tileset.json (1.0 with b3dm or
+// 3DTILES_content_gltf, 1.1 with glTF/GLB content), its external tilesets and every content, read
+// as a production and written back with the same layout. Contents that share an atlas (an
+// external image named by several GLBs, as a level of Matterport tilesets does) are one model.
+// Tileset JSON keeps every tile, transform, bounding volume, geometric error and refine; b3dm keep
+// their feature and batch tables byte for byte, only the GLB inside changes.
+#pragma once
+
+#include "texdefrag/pipeline/pipeline.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace texdefrag {
+
+/// A malformed or incomplete tileset; the message names the file and the tileset naming it.
+struct TilesetError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// One content of a tile.
+struct TilesetContent {
+  std::string uri;      ///< as written in the tileset
+  std::string path;     ///< resolved file
+  std::string tileset;  ///< the tileset JSON that names it
+  std::string kind;     ///< "glb", "gltf", "b3dm", or the lower-case extension of other contents
+};
+
+struct Tileset {
+  std::string path;                      ///< the entry tileset JSON
+  std::vector<std::string> tilesets;     ///< every tileset JSON, entry first, then external ones as reached
+  std::vector<TilesetContent> contents;  ///< every content that is not an external tileset, in tree order
+};
+
+/// True when `path` looks like a tileset JSON (a .json file whose object has "asset" and "root").
+bool is_tileset(const std::string& path);
+
+/// Reads a tileset and its external tilesets (recursively). Throws TilesetError naming the file
+/// and its parent tileset for a missing or unreadable tileset or content, a URI outside the entry
+/// tileset's folder, implicit tiling, or an external tileset cycle.
+Tileset read_tileset(const std::string& path);
+
+/// A Batched 3D Model: header tables kept as bytes, the GLB separate.
+struct B3dm {
+  std::string feature_table_json, feature_table_binary, batch_table_json, batch_table_binary;
+  std::vector<uint8_t> glb;
+};
+/// Parses a b3dm (version 1, current header). Throws TilesetError naming `where` on a bad magic,
+/// version, legacy header or lengths past the end.
+B3dm parse_b3dm(const std::vector<uint8_t>& bytes, const std::string& where);
+/// The b3dm bytes of `b` (tables unchanged, GLB padded to 8 bytes as the specification asks).
+std::string write_b3dm(const B3dm& b);
+
+struct TilesetRunOptions {
+  std::string tileset;     ///< entry tileset JSON
+  std::string output_dir;  ///< must not be the tileset's folder
+  ProgressFn progress;
+};
+
+/// Runs the pipeline on every content of every tile (every level), each group of contents sharing
+/// an atlas as one model, and writes the same layout under output_dir: tileset JSONs (copied, or
+/// with 3DTILES_content_gltf's extension lists updated when KTX2 or Draco no longer occur), every
+/// content under its name, pages beside them, one run report per model
+/// (<first content>.report.json) and a summary (<tileset stem>.summary.json, returned). Contents
+/// of other kinds (pnts, i3dm, cmpt) are copied unchanged and listed in the summary. Every file
+/// appears at once (one OutputSet); any error leaves nothing.
+nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions& options);
+
+/// Structural check of a tileset as the 3D Tiles specification states it: every content URI
+/// exists, and every content's positions (glTF node transforms, b3dm RTC_CENTER, the y-up to z-up
+/// rotation, the tile transforms) lie inside the tile's bounding volume (box, sphere or region) and
+/// its content bounding volume, within `tolerance` (relative to the volume's size). Returns the
+/// problems found (empty: the tileset passes).
+std::vector<std::string> check_tileset(const std::string& path, double tolerance = 1e-4);
+
+/// Differences between two tilesets' trees (tile by tile: bounding volumes, transforms, geometric
+/// errors, refine, content URIs, extras, children), across external tilesets. Empty when equal.
+std::vector<std::string> compare_tilesets(const std::string& a, const std::string& b);
+
+}  // namespace texdefrag

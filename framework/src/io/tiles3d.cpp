@@ -1,0 +1,328 @@
+// 3D Tiles reader, production driver and structural check (see texdefrag/io/tiles3d.h).
+#include "texdefrag/io/tiles3d.h"
+
+#include "texdefrag/io/gltf_format.h"
+#include "texdefrag/io/output_set.h"
+
+#include "gltf_internal.h"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <set>
+
+namespace fs = std::filesystem;
+
+namespace texdefrag {
+
+using gltf_detail::ojson;
+
+namespace {
+
+std::vector<uint8_t> read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+ojson read_json(const std::string& path, const std::string& parent) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw TilesetError(path + ": tileset not found" + (parent.empty() ? std::string() : " (named by " + parent + ")"));
+  try {
+    return ojson::parse(in);
+  } catch (const std::exception& e) {
+    throw TilesetError(path + ": tileset JSON: " + e.what());
+  }
+}
+
+uint32_t le32(const uint8_t* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24; }
+
+std::string lower_ext(const std::string& p) {
+  std::string e = fs::path(p).extension().string();
+  if (!e.empty()) e.erase(0, 1);
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return e;
+}
+
+/// Content URIs of a tile: 1.0 "content", 1.1 "contents".
+std::vector<std::string> content_uris(const ojson& tile) {
+  std::vector<std::string> out;
+  auto one = [&](const ojson& c) {
+    if (c.is_object()) {
+      if (c.contains("uri")) out.push_back(c["uri"].get<std::string>());
+      else if (c.contains("url")) out.push_back(c["url"].get<std::string>());  // pre-1.0 spelling
+    }
+  };
+  if (tile.contains("content")) one(tile["content"]);
+  if (tile.contains("contents"))
+    for (const auto& c : tile["contents"]) one(c);
+  return out;
+}
+
+void walk_tiles(const ojson& tile, const std::function<void(const ojson&)>& fn) {
+  fn(tile);
+  if (tile.contains("children"))
+    for (const auto& c : tile["children"]) walk_tiles(c, fn);
+}
+
+std::string resolve(const std::string& tileset, const std::string& uri) {
+  return (fs::path(tileset).parent_path() / gltf_detail::url_decode(uri)).lexically_normal().string();
+}
+
+}  // namespace
+
+bool is_tileset(const std::string& path) {
+  if (lower_ext(path) != "json") return false;
+  std::ifstream in(path);
+  if (!in) return false;
+  try {
+    const ojson j = ojson::parse(in);
+    return j.is_object() && j.contains("asset") && j.contains("root");
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+Tileset read_tileset(const std::string& path) {
+  Tileset ts;
+  ts.path = path;
+  const fs::path root = fs::absolute(fs::path(path).parent_path()).lexically_normal();
+  std::set<std::string> seen;
+  std::function<void(const std::string&, const std::string&)> visit = [&](const std::string& file, const std::string& parent) {
+    const std::string key = fs::absolute(file).lexically_normal().string();
+    if (!seen.insert(key).second) throw TilesetError(file + ": external tileset reached twice (named by " + parent + "): a cycle");
+    const ojson j = read_json(file, parent);
+    if (!j.is_object() || !j.contains("root") || !j["root"].is_object())
+      throw TilesetError(file + ": not a tileset (no \"root\" tile)" + (parent.empty() ? std::string() : " (named by " + parent + ")"));
+    ts.tilesets.push_back(file);
+    walk_tiles(j["root"], [&](const ojson& tile) {
+      if (tile.contains("implicitTiling") || (tile.contains("extensions") && tile["extensions"].contains("3DTILES_implicit_tiling")))
+        throw TilesetError(file + ": implicit tiling is not supported");
+      for (const std::string& uri : content_uris(tile)) {
+        if (uri.find("://") != std::string::npos) throw TilesetError(file + ": content '" + uri + "' is not a local file");
+        const std::string p = resolve(file, uri);
+        const fs::path rel = fs::absolute(p).lexically_normal().lexically_relative(root);
+        if (rel.empty() || *rel.begin() == "..")
+          throw TilesetError(file + ": content '" + uri + "' lies outside " + root.string() + " (the output mirrors that folder)");
+        std::error_code ec;
+        if (!fs::is_regular_file(p, ec)) throw TilesetError(p + ": content not found (named by " + file + ")");
+        const std::string e = lower_ext(p);
+        if (e == "json") {
+          visit(p, file);
+          continue;
+        }
+        ts.contents.push_back({uri, p, file, e});
+      }
+    });
+  };
+  visit(path, "");
+  return ts;
+}
+
+B3dm parse_b3dm(const std::vector<uint8_t>& b, const std::string& where) {
+  if (b.size() < 28 || std::memcmp(b.data(), "b3dm", 4) != 0) throw TilesetError(where + ": not a b3dm (bad magic or shorter than its header)");
+  const uint32_t version = le32(&b[4]), length = le32(&b[8]);
+  if (version != 1) throw TilesetError(where + ": b3dm version " + std::to_string(version) + " (expected 1)");
+  if (length != b.size())
+    throw TilesetError(where + ": b3dm header says " + std::to_string(length) + " bytes, the file has " + std::to_string(b.size()));
+  const uint32_t ftj = le32(&b[12]), ftb = le32(&b[16]), btj = le32(&b[20]), btb = le32(&b[24]);
+  // note: legacy headers (batchLength first) make one of these huge; Cesium tests >= 570425344.
+  if (btj >= 570425344u || btb >= 570425344u) throw TilesetError(where + ": legacy b3dm header is not supported");
+  const uint64_t tables = uint64_t(ftj) + ftb + btj + btb;
+  if (28 + tables > b.size()) throw TilesetError(where + ": b3dm tables run past the end of the file");
+  B3dm r;
+  size_t at = 28;
+  auto take = [&](uint32_t n) {
+    std::string s(reinterpret_cast<const char*>(&b[at]), n);
+    at += n;
+    return s;
+  };
+  r.feature_table_json = take(ftj);
+  r.feature_table_binary = take(ftb);
+  r.batch_table_json = take(btj);
+  r.batch_table_binary = take(btb);
+  r.glb.assign(b.begin() + static_cast<std::ptrdiff_t>(at), b.end());
+  // Padding after the GLB (to 8 bytes) is not part of it: cut to the GLB's own length.
+  if (r.glb.size() >= 12 && std::memcmp(r.glb.data(), "glTF", 4) == 0 && le32(&r.glb[8]) <= r.glb.size()) r.glb.resize(le32(&r.glb[8]));
+  return r;
+}
+
+std::string write_b3dm(const B3dm& b) {
+  std::string glb(b.glb.begin(), b.glb.end());
+  const size_t head = 28 + b.feature_table_json.size() + b.feature_table_binary.size() + b.batch_table_json.size() +
+                      b.batch_table_binary.size();
+  while ((head + glb.size()) % 8) glb.push_back('\0');
+  std::string out = "b3dm";
+  auto put32 = [&](size_t v) {
+    for (int i = 0; i < 4; ++i) out += static_cast<char>((v >> (8 * i)) & 0xFF);
+  };
+  put32(1);
+  put32(head + glb.size());
+  put32(b.feature_table_json.size());
+  put32(b.feature_table_binary.size());
+  put32(b.batch_table_json.size());
+  put32(b.batch_table_binary.size());
+  out += b.feature_table_json + b.feature_table_binary + b.batch_table_json + b.batch_table_binary + glb;
+  return out;
+}
+
+namespace {
+
+/// Relative name of `file` under `root` (with '/').
+std::string rel_name(const std::string& file, const fs::path& root) {
+  return fs::absolute(file).lexically_normal().lexically_relative(root).generic_string();
+}
+
+/// A tileset JSON for the output: the same bytes, unless its 3DTILES_content_gltf lists name
+/// extensions that no output content uses any more (KTX2 pages become JPEG/PNG, Draco may go).
+std::string output_tileset_json(const std::string& path, const std::set<std::string>& gone) {
+  const std::vector<uint8_t> bytes = read_bytes(path);
+  ojson j = ojson::parse(bytes.begin(), bytes.end());
+  bool changed = false;
+  if (j.contains("extensions") && j["extensions"].contains("3DTILES_content_gltf")) {
+    ojson& ext = j["extensions"]["3DTILES_content_gltf"];
+    for (const char* list : {"extensionsUsed", "extensionsRequired"}) {
+      if (!ext.contains(list)) continue;
+      ojson kept = ojson::array();
+      for (const auto& e : ext[list])
+        if (!gone.count(e.get<std::string>())) kept.push_back(e);
+      if (kept.size() != ext[list].size()) {
+        changed = true;
+        if (kept.empty()) ext.erase(list);
+        else ext[list] = kept;
+      }
+    }
+  }
+  return changed ? j.dump(4) + "\n" : std::string(bytes.begin(), bytes.end());
+}
+
+}  // namespace
+
+nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions& options) {
+  const Tileset ts = read_tileset(options.tileset);
+  const fs::path root = fs::absolute(fs::path(options.tileset).parent_path()).lexically_normal();
+  std::vector<GltfInput> inputs;
+  std::vector<const TilesetContent*> input_content;
+  std::map<size_t, B3dm> b3dms;
+  std::vector<const TilesetContent*> others;
+  for (const TilesetContent& c : ts.contents) {
+    const std::string who = c.path + " (named by " + c.tileset + ")";
+    if (c.kind == "glb" || c.kind == "gltf") {
+      inputs.push_back({c.path, {}, ""});
+    } else if (c.kind == "b3dm") {
+      B3dm b = parse_b3dm(read_bytes(c.path), who);
+      inputs.push_back({c.path, b.glb, fs::path(c.path).parent_path().string()});
+      b3dms[inputs.size() - 1] = std::move(b);
+    } else {
+      others.push_back(&c);
+      continue;
+    }
+    input_content.push_back(&c);
+  }
+  std::vector<std::vector<size_t>> groups;
+  try {
+    groups = gltf_shared_image_groups(inputs);
+  } catch (const GltfError& e) {
+    throw TilesetError(std::string(e.what()));
+  }
+  // note: the whole input folder is protected: no output may land inside the production read.
+  OutputSet files(options.output_dir, {root.string()}, options.tileset);
+  const GltfFormat format;
+  nlohmann::json summary = {{"tileset", options.tileset}, {"config_origin", config.origin}, {"models", nlohmann::json::array()}};
+  std::set<std::string> still_used;
+  size_t in_bytes = 0, out_bytes = 0, faces = 0;
+  for (size_t gi = 0; gi < groups.size(); ++gi) {
+    std::vector<GltfInput> group;
+    std::vector<std::string> names;
+    for (size_t i : groups[gi]) {
+      group.push_back(inputs[i]);
+      names.push_back(rel_name(inputs[i].path, root));
+    }
+    const std::string parent = input_content[groups[gi].front()]->tileset;
+    if (options.progress) options.progress("tileset " + names.front(), double(gi) / double(groups.size()));
+    RunOptions ro;
+    ro.input = group.front().path;
+    ro.output_dir = options.output_dir;
+    ro.format = &format;
+    try {
+      ro.model = std::make_shared<LoadedModel>(format.read_group(group, root.string()));
+    } catch (const std::exception& e) {
+      throw TilesetError(std::string(e.what()) + " (content of " + parent + ")");
+    }
+    ro.write = [&](const LoadedModel& lm, const TexturedMesh& out, const std::vector<Image>& pages, const PageWriteOptions& po) {
+      const GltfOutput go = format.build(lm, out, pages, names, po);
+      WriteResult wr;
+      for (size_t i = 0; i < names.size(); ++i) {
+        const std::string& doc = go.documents[i];
+        for (const char* e : {"KHR_texture_basisu", "KHR_draco_mesh_compression"})
+          if (doc.find(e) != std::string::npos) still_used.insert(e);
+        auto b = b3dms.find(groups[gi][i]);
+        if (b != b3dms.end()) {
+          B3dm nb = b->second;
+          nb.glb.assign(doc.begin(), doc.end());
+          files.write_file(names[i], write_b3dm(nb));
+        } else {
+          files.write_file(names[i], doc);
+        }
+        wr.files.push_back(files.final_path(names[i]));
+      }
+      for (const auto& f : go.files) {
+        files.write_file(f.path, f.bytes);
+        wr.files.push_back(files.final_path(f.path));
+      }
+      wr.main_file = wr.files.front();
+      wr.page_bytes = go.report.value("page_bytes", size_t{0});
+      wr.report = go.report;
+      return wr;
+    };
+    nlohmann::json report;
+    try {
+      report = run_pipeline(config, ro);
+    } catch (const std::exception& e) {
+      throw TilesetError(names.front() + " (content of " + parent + "): " + e.what());
+    }
+    const std::string report_name = (fs::path(names.front()).parent_path() / (fs::path(names.front()).stem().string() + ".report.json")).generic_string();
+    files.write_file(report_name, report.dump(2) + "\n");
+    const auto& w = report["stages"]["write"];
+    const size_t pin = w.value("input_page_bytes", size_t{0}), pout = w.value("page_bytes", size_t{0});
+    in_bytes += pin;
+    out_bytes += pout;
+    faces += report["input_stats"]["faces"].get<size_t>();
+    summary["models"].push_back({{"contents", names},
+                                 {"report", report_name},
+                                 {"faces", report["input_stats"]["faces"]},
+                                 {"charts_in", report["input_stats"]["charts"]["charts"]},
+                                 {"charts_out", report["output_stats"]["charts"]},
+                                 {"megapixels_in", report["input_stats"]["megapixels"]},
+                                 {"megapixels_out", report["output_stats"]["megapixels"]},
+                                 {"page_bytes_in", pin},
+                                 {"page_bytes_out", pout},
+                                 {"time_s", report["total_time_s"]}});
+  }
+  summary["copied_unchanged"] = nlohmann::json::array();
+  for (const TilesetContent* c : others) {
+    const std::vector<uint8_t> b = read_bytes(c->path);
+    files.write_file(rel_name(c->path, root), std::string(b.begin(), b.end()));
+    summary["copied_unchanged"].push_back(rel_name(c->path, root));
+  }
+  std::set<std::string> gone;
+  for (const char* e : {"KHR_texture_basisu", "KHR_draco_mesh_compression"})
+    if (!still_used.count(e)) gone.insert(e);
+  for (const std::string& t : ts.tilesets) files.write_file(rel_name(t, root), output_tileset_json(t, gone));
+  summary["tilesets"] = ts.tilesets.size();
+  summary["contents"] = ts.contents.size();
+  summary["faces"] = faces;
+  summary["page_bytes_in"] = in_bytes;
+  summary["page_bytes_out"] = out_bytes;
+  files.write_file(fs::path(options.tileset).stem().string() + ".summary.json", summary.dump(2) + "\n");
+  files.commit();
+  return summary;
+}
+
+}  // namespace texdefrag
