@@ -28,9 +28,8 @@ const std::vector<const ModelFormat*>& model_formats() {
   // ones that decide by extension alone.
   static const ObjFormat obj;
   static const OsgbFormat osgb;
-  static const std::vector<const ModelFormat*> all = {&obj, &osgb};
   static const GltfFormat gltf;
-  static const std::vector<const ModelFormat*> all = {&obj, &gltf};
+  static const std::vector<const ModelFormat*> all = {&obj, &osgb, &gltf};
   return all;
 }
 
