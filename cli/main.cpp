@@ -112,8 +112,7 @@ int main(int argc, char** argv) {
   bool quiet = false, no_write = false, print_report = false;
   auto* run = app.add_subcommand("run", "Run a pipeline configuration on one model");
   run->add_option("--config,-c", config_path, "Pipeline configuration (JSON)")->required();
-  run->add_option("input", input, "Input model (OBJ, OSGB) or production folder (docs/production.md)")->required();
-  run->add_option("input", input, "Input model (OBJ, glTF/GLB) or 3D Tiles tileset JSON")->required();
+  run->add_option("input", input, "Input model (OBJ, OSGB, glTF/GLB), production folder (docs/production.md) or 3D Tiles tileset JSON")->required();
   run->add_option("-o,--output", output_dir, "Output folder (created; must not be the input's folder)");
   run->add_option("--set", sets, "Override an option: SECTION.OPTION=VALUE or STAGE.OPTION=VALUE (repeatable)");
   run->add_flag("--quiet,-q", quiet, "No progress bar and no summary line");

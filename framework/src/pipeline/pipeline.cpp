@@ -324,7 +324,7 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   // stage runs, so a run that would overwrite an input (an MTL the input keeps in the output
   // folder) is refused at once.
   std::unique_ptr<OutputSet> outputs;
-  if (options.write_output) {
+  if (options.write_output && !options.write) {  // a write hook writes into its caller's set
     outputs = std::make_unique<OutputSet>(options.output_dir, protected_inputs(config, model), options.input);
     for (const std::string& name : {format.output_name(stem), stem + ".mtl", stem + ".report.json"}) outputs->check(name);
   }
@@ -440,15 +440,8 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
       po.output_options = config.output.values();
       const std::string ext = po.format == ImageFormat::Jpeg ? "jpg" : "png";
       TexturedMesh out = make_output_mesh(mesh, ctx.atlas, ctx.layout, stem, ext, options.output_dir);
-      const WriteResult wr = format.write(model, out, out_pages, stem, po, *outputs);
-      WriteResult wr;
-      if (options.write) {
-        wr = options.write(model, out, out_pages, po);
-      } else {
-        OutputSet files(options.output_dir, model.input_files, options.input);
-        wr = format.write(model, out, out_pages, stem, po, files);
-        files.commit();
-      }
+      const WriteResult wr = options.write ? options.write(model, out, out_pages, po)
+                                           : format.write(model, out, out_pages, stem, po, *outputs);
       node["format"] = format.name();
       node["image_format"] = ext == "jpg" ? "jpeg" : "png";
       if (po.format == ImageFormat::Jpeg) node["jpeg_quality"] = po.jpeg_quality;
@@ -476,8 +469,6 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     }
     outputs->commit();
   }
-  if (options.write_output && !options.write && config.output.get_bool("write_report"))
-    write_file_atomic((fs::path(options.output_dir) / (stem + ".report.json")).string(), report.dump(2) + "\n");
   return report;
 }
 
