@@ -1,24 +1,30 @@
-// Sub-commands contributed by eval/ (eval, bench, synth) and cli/cmd_*.cpp to the texdefrag command line.
-// Each adds itself to `app` and returns the sub-command; the callback sets `exit_code`
-// (0 ok, 1 failure, 2 usage or configuration error).
+// Sub-commands of the texdefrag command line, one file each (cli/cmd_<name>.cpp). Each adds itself
+// to `app` and returns the sub-command; its callback sets `exit_code` (0 ok, 1 failure, 2 usage or
+// configuration error). The libraries they drive (eval/, framework) know nothing of the CLI.
 #pragma once
 
 #include "texdefrag/pipeline/pipeline.h"
 
 #include <CLI/CLI.hpp>
 
+#include <string>
+
 namespace texdefrag::cli {
-CLI::App* add_eval_command(CLI::App& app, int& exit_code);   // eval/metrics
-CLI::App* add_bench_command(CLI::App& app, int& exit_code);  // eval/bench
-CLI::App* add_synth_command(CLI::App& app, int& exit_code);  // eval/synth
-CLI::App* add_buildings_command(CLI::App& app, int& exit_code);  // eval/buildings
-// cli/cmd_batch.cpp (docs/batch.md)
-CLI::App* add_tasks_command(CLI::App& app, int& exit_code);  // the task list of a production
-CLI::App* add_batch_command(CLI::App& app, int& exit_code);  // execs tools/batch/texdefrag_batch
-CLI::App* add_report_command(CLI::App& app, int& exit_code); // cli/cmd_report.cpp, eval/report
+CLI::App* add_eval_command(CLI::App& app, int& exit_code);     // cmd_eval.cpp (eval/metrics)
+CLI::App* add_bench_command(CLI::App& app, int& exit_code);    // cmd_bench.cpp (eval/bench)
+CLI::App* add_synth_command(CLI::App& app, int& exit_code);    // cmd_synth.cpp (eval/synth)
+CLI::App* add_buildings_command(CLI::App& app, int& exit_code);  // cmd_buildings.cpp (eval/buildings)
+CLI::App* add_tasks_command(CLI::App& app, int& exit_code);  // cmd_batch.cpp: the task list of a production
+CLI::App* add_batch_command(CLI::App& app, int& exit_code);  // cmd_batch.cpp: execs tools/batch/texdefrag_batch
+CLI::App* add_report_command(CLI::App& app, int& exit_code); // cmd_report.cpp (eval/report)
 /// `run` on a 3D Tiles tileset JSON (cli/run_tileset.cpp). Returns the exit code.
 int run_tileset_cli(const PipelineConfig& config, const std::string& tileset, const std::string& output_dir,
                     const ProgressFn& progress, bool quiet, bool print_summary);
+CLI::App* add_configs_command(CLI::App& app, int& exit_code);  // cmd_configs.cpp
+
+/// `texdefrag --version`: version, source revision, compiler, formats and optional features
+/// (cmd_version.cpp, from the build's generated build_info.cpp).
+std::string version_text();
 }  // namespace texdefrag::cli
 
 #include "texdefrag/pipeline/pipeline.h"

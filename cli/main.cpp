@@ -8,6 +8,8 @@
 #include "texdefrag/io/tiles3d.h"
 #include "texdefrag/pipeline/pipeline.h"
 #include "texdefrag/production/production.h"
+#include "texdefrag/stage/describe.h"
+#include "texdefrag/util/paths.h"
 
 #include <CLI/CLI.hpp>
 #include <unistd.h>
@@ -48,18 +50,7 @@ std::string option_range(const OptionSpec& o) {
   return "[" + (o.min ? num(*o.min) : std::string("-inf")) + ", " + (o.max ? num(*o.max) : std::string("inf")) + "]";
 }
 
-json describe_json(const StageInfo& info, const std::string& source) {
-  json opts = json::array();
-  for (const OptionSpec& o : info.options) {
-    json j = {{"key", o.key}, {"type", to_string(o.type)}, {"default", o.default_value}, {"help", o.help}};
-    if (o.min) j["min"] = *o.min;
-    if (o.max) j["max"] = *o.max;
-    if (!o.choices.empty()) j["choices"] = o.choices;
-    if (!o.unit.empty()) j["unit"] = o.unit;
-    opts.push_back(j);
-  }
-  return {{"name", info.name}, {"description", info.description}, {"doc", info.doc}, {"source", source}, {"options", opts}};
-}
+json describe_json(const StageInfo& info, const std::string& source) { return describe_stage(info, source); }
 
 void print_describe(const StageInfo& info, const std::string& source) {
   std::cout << info.name << ": " << info.description << "\n";
@@ -87,6 +78,9 @@ int guarded(F&& body) {
   } catch (const ConfigError& e) {
     std::cerr << "configuration error:\n" << e.what() << "\n";
     return 2;
+  } catch (const ConfigNotFound& e) {
+    std::cerr << "configuration error:\n" << e.what() << "\n";
+    return 2;
   } catch (const RegistryError& e) {
     std::cerr << "plugin error: " << e.what() << "\n";
     return 2;
@@ -104,6 +98,7 @@ int guarded(F&& body) {
 int main(int argc, char** argv) {
   CLI::App app{"texdefrag: texture defragmentation of photogrammetric building models"};
   app.require_subcommand(1);
+  app.set_version_flag("--version,-V", cli::version_text());
   int exit_code = 0;
 
   // run
@@ -111,7 +106,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> sets;
   bool quiet = false, no_write = false, print_report = false;
   auto* run = app.add_subcommand("run", "Run a pipeline configuration on one model");
-  run->add_option("--config,-c", config_path, "Pipeline configuration (JSON)")->required();
+  run->add_option("--config,-c", config_path,
+                  "Configuration: a JSON file or a shipped name (`texdefrag configs`); default: best");
   run->add_option("input", input, "Input model (OBJ, OSGB, glTF/GLB), production folder (docs/production.md) or 3D Tiles tileset JSON")->required();
   run->add_option("-o,--output", output_dir, "Output folder (created; must not be the input's folder)");
   run->add_option("--set", sets, "Override an option: SECTION.OPTION=VALUE or STAGE.OPTION=VALUE (repeatable)");
@@ -123,7 +119,7 @@ int main(int argc, char** argv) {
                 "Process models whose referenced child files (OSGB PagedLOD levels) are missing; listed in the report");
   run->callback([&] {
     exit_code = guarded([&] {
-      const PipelineConfig cfg = load_config(config_path, sets);
+      const PipelineConfig cfg = load_config(resolve_config(config_path.empty() ? kDefaultConfig : config_path), sets);
       if (output_dir.empty() && !no_write) {
         std::cerr << "texdefrag run: -o OUTDIR is required (or --no-write)\n";
         return 2;
@@ -154,11 +150,11 @@ int main(int argc, char** argv) {
 
   // validate
   auto* validate = app.add_subcommand("validate", "Validate a pipeline configuration without reading any mesh");
-  validate->add_option("--config,-c", config_path, "Pipeline configuration (JSON)")->required();
+  validate->add_option("--config,-c", config_path, "Configuration: a JSON file or a shipped name")->required();
   validate->add_option("--set", sets, "Override an option (as in run)");
   validate->callback([&] {
     exit_code = guarded([&] {
-      load_config(config_path, sets);
+      load_config(resolve_config(config_path), sets);
       std::cout << config_path << ": ok\n";
       return 0;
     });
@@ -204,21 +200,14 @@ int main(int argc, char** argv) {
     });
   });
 
-#ifdef TEXDEFRAG_HAVE_EVAL
   cli::add_eval_command(app, exit_code);
-#endif
-#ifdef TEXDEFRAG_HAVE_BENCH
   cli::add_bench_command(app, exit_code);
-#endif
-#ifdef TEXDEFRAG_HAVE_SYNTH
   cli::add_synth_command(app, exit_code);
-#endif
-#ifdef TEXDEFRAG_HAVE_BUILDINGS
   cli::add_buildings_command(app, exit_code);
-#endif
 #ifdef TEXDEFRAG_HAVE_REPORT
   cli::add_report_command(app, exit_code);
 #endif
+  cli::add_configs_command(app, exit_code);
 
   cli::add_tasks_command(app, exit_code);
   cli::add_batch_command(app, exit_code);

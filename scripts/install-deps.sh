@@ -21,6 +21,7 @@ PKGS=(
   python3-dev pybind11-dev  # the Python module
   chromium               # report viewer test (headless)
   help2man dpkg-dev fakeroot file  # man page and the .deb (CPack)
+  clang libclang-rt-14-dev  # .ci/run: ASan/UBSan build and the libFuzzer targets (Debian 12: clang 14)
 )
 missing=()
 # three.js (report viewer) and gltf-validator (tests) come from npm (scripts/install-npm.sh); Node.js

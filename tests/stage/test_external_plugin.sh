@@ -1,14 +1,29 @@
 #!/usr/bin/env bash
-# Builds tests/stage/external_plugin out of tree against the build tree's texdefrag package, loads
-# it through TEXDEFRAG_PLUGIN_PATH and runs it in a pipeline. Usage: test_external_plugin.sh BUILD_DIR SRC_DIR
+# Installs the build (cmake --install into a scratch prefix), builds tests/stage/external_plugin
+# (a detector, a packer on the exported packing helpers, a merger on the exported merge engine) out
+# of tree against the INSTALLED package, loads the modules through TEXDEFRAG_PLUGIN_PATH into the
+# installed texdefrag and runs them in pipelines, from an empty working folder.
+# Usage: test_external_plugin.sh BUILD_DIR SRC_DIR
 set -euo pipefail
 build=$1; src=$2
 work=$(mktemp -d); trap 'rm -rf "$work"' EXIT
-cmake -S "$src/tests/stage/external_plugin" -B "$work/build" -DCMAKE_BUILD_TYPE=Release -Dtexdefrag_DIR="$build" >/dev/null
-cmake --build "$work/build" >/dev/null
+cmake --install "$build" --prefix "$work/prefix" >/dev/null
+# Only the installed package: the build tree is not on any search path.
+cmake -S "$src/tests/stage/external_plugin" -B "$work/build" -DCMAKE_BUILD_TYPE=Release \
+      -DCMAKE_PREFIX_PATH="$work/prefix" -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF >"$work/configure.log" ||
+  { cat "$work/configure.log"; echo "FAIL: configure against the installed package"; exit 1; }
+grep -q "$work/prefix/lib/cmake/texdefrag" "$work/build/CMakeCache.txt" ||
+  { grep texdefrag_DIR "$work/build/CMakeCache.txt"; echo "FAIL: texdefrag not found in the installed prefix"; exit 1; }
+cmake --build "$work/build" -j2 >"$work/build.log" || { cat "$work/build.log"; echo "FAIL: build"; exit 1; }
 export TEXDEFRAG_PLUGIN_PATH="$work/build"
-bin="$build/bin/texdefrag"
-"$bin" plugins | grep -q '^detectors.by_group ' || { echo "FAIL: detectors.by_group not listed"; exit 1; }
+bin="$work/prefix/bin/texdefrag"
+mkdir "$work/empty" && cd "$work/empty"
+for s in detectors.by_group packers.row mergers.by_material; do
+  "$bin" plugins | grep -q "^$s " || { echo "FAIL: $s not listed"; exit 1; }
+done
+"$bin" plugins --describe detectors.by_group | grep -q "module: $work/build/" || { echo "FAIL: not loaded from the plugin build"; exit 1; }
+"$bin" plugins --describe packers.shelf | grep -q "module: $work/prefix/lib/texdefrag/plugins/" ||
+  { echo "FAIL: installed stages not loaded from the prefix"; exit 1; }
 "$bin" plugins --describe detectors.by_group --json | grep -q '"ungrouped_region"' || { echo "FAIL: options not described"; exit 1; }
 # A two-group model: two squares in separate groups, each triangle its own chart.
 mkdir -p "$work/in"
@@ -46,4 +61,22 @@ assert node["regions"] == 2, node
 assert r["output_stats"]["faces"] == 4, r["output_stats"]
 PY
 test -s "$work/out/two.obj" || { echo "FAIL: no output"; exit 1; }
-echo "1 passed, 0 failed"
+# The packer and the merger on the bundled example (installed with the package).
+example="$work/prefix/share/texdefrag/examples/building/building.obj"
+cat > "$work/cfg2.json" <<'JSON'
+{"detector": {"type": "detectors.region_growing"}, "merger": {"type": "mergers.by_material"},
+ "packer": {"type": "packers.row", "row_width": 2048}}
+JSON
+"$bin" run -q -c "$work/cfg2.json" "$example" -o "$work/out2" --report > "$work/report2.json"
+python3 - "$work/report2.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+m = r["stages"]["mergers.by_material"]
+p = r["stages"]["packers.row"]
+assert m["constraint_regions"] >= 1, m
+assert r["output_stats"]["charts"] < r["input_stats"]["charts"]["charts"], (r["output_stats"], r["input_stats"]["charts"])
+assert p["pages"] >= 1 and p["row_width"] == 2048, p
+assert r["output_stats"]["faces"] == r["input_stats"]["faces"]
+PY
+test -s "$work/out2/building.obj" || { echo "FAIL: no output for packers.row / mergers.by_material"; exit 1; }
+echo "2 passed, 0 failed"

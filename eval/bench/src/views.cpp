@@ -9,7 +9,6 @@
 #include "texdefrag/io/image.h"
 #include "texdefrag/io/obj.h"
 #include "texdefrag/pipeline/pipeline.h"
-#include "texdefrag/stage/registry.h"
 
 #include <algorithm>
 #include <cmath>
@@ -201,30 +200,22 @@ std::string write_chart_render(const std::string& obj_path, const std::string& p
   return png_path;
 }
 
-std::vector<int> detect_regions(const TexturedMesh& mesh_in, const std::string& config_path,
+std::vector<int> detect_regions(const TexturedMesh& mesh, const std::string& config_path,
                                 const std::vector<std::string>& overrides, const std::string& input_path) {
-  const PipelineConfig cfg = load_config(config_path, overrides);
-  if (cfg.detector.type == "detectors.none") return {};
-  TexturedMesh mesh = mesh_in;
-  const Topology topo = build_topology(mesh);
-  const ChartSet charts = build_charts(mesh, topo);
-  StageContext ctx;
-  ctx.mesh = &mesh;
-  ctx.topology = &topo;
-  ctx.input_charts = &charts;
-  ctx.atlas = charts.atlas;
-  json report = json::object();
-  ctx.report = &report;
-  ctx.progress = [](const std::string&, double) { return true; };
-  ctx.input_path = input_path;
-  auto stage = Registry::instance().create(cfg.detector.type);
-  stage->set_options(cfg.detector.options);
-  auto* detector = dynamic_cast<Detector*>(stage.get());
-  if (!detector) throw BenchError(cfg.detector.type + " is not a detector");
-  detector->detect(ctx);
-  if (ctx.regions.face_region.size() != mesh.faces.size())
-    throw BenchError(cfg.detector.type + ": regions do not cover every face");
-  return ctx.regions.face_region;
+  RunOptions ro;
+  ro.input = input_path;
+  ro.write_output = false;
+  ro.stop_after = "detector";
+  Regions regions;
+  ro.on_stage = [&](const std::string& section, const StageContext& ctx) {
+    if (section == "detector") regions = ctx.regions;
+  };
+  run_pipeline(load_config(config_path, overrides), ro);
+  if (regions.num_regions <= 1) return {};  // one region (no constraint) or none: nothing to colour
+  if (regions.face_region.size() != mesh.faces.size())
+    throw BenchError(input_path + ": the detector's regions do not match the model's " + std::to_string(mesh.faces.size()) +
+                     " faces");
+  return regions.face_region;
 }
 
 std::string write_region_render(const std::string& obj_path, const std::string& config_path,

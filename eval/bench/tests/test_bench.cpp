@@ -349,7 +349,7 @@ TEST(BenchViews, RenderShowsEveryChartOnce) {
   for (const auto& [c, n] : colours) EXPECT_GT(n, 100) << int(c[0]) << "," << int(c[1]) << "," << int(c[2]);
   EXPECT_THROW(render_3d(m, {0, 1}, 100), BenchError);
   const std::string obj = write_model(d / "m", "grid", 2, 1);
-  EXPECT_EQ(write_region_render(obj, repack_config(), {}, (d / "r.png").string()), "");  // detectors.none
+  EXPECT_EQ(write_region_render(obj, repack_config(), {}, (d / "r.png").string()), "");  // one region
   EXPECT_FALSE(fs::exists(d / "r.png"));
   EXPECT_TRUE(fs::exists(write_chart_render(obj, (d / "v" / "c.png").string(), 64)));
 }

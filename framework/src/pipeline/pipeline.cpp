@@ -399,6 +399,8 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
         node["uv_overlap_pairs"] = packed_overlaps;
       }
     });
+    if (options.on_stage) options.on_stage(sc->section, ctx);
+    if (sc->section == options.stop_after) return report;
   }
 
   std::vector<Image> out_pages;

@@ -97,8 +97,7 @@ void Registry::add(StageInfo info, const std::string& source) {
 std::vector<std::string> Registry::plugin_dirs() {
   std::vector<std::string> dirs;
   std::error_code ec;
-  if (fs::is_directory(build_plugin_dir(), ec)) dirs.emplace_back(build_plugin_dir());
-  else if (fs::is_directory(install_plugin_dir(), ec)) dirs.emplace_back(install_plugin_dir());
+  if (fs::is_directory(plugin_dir(), ec)) dirs.emplace_back(plugin_dir());  // relative to libtexdefrag.so
   if (const char* env = std::getenv("TEXDEFRAG_PLUGIN_PATH")) {
     std::string s(env);
     size_t b = 0;
@@ -140,7 +139,7 @@ void Registry::load_plugins() {
   for (const std::string& dir : plugin_dirs()) {
     std::error_code ec;
     if (!fs::is_directory(dir, ec)) {
-      if (dir != build_plugin_dir() && dir != install_plugin_dir())
+      if (dir != plugin_dir())
         throw RegistryError("TEXDEFRAG_PLUGIN_PATH names " + dir + ", which is not a folder");
       continue;
     }

@@ -79,6 +79,12 @@ struct RunOptions {
   /// and the report file is left to the caller (a production writes every tile into one set).
   std::function<WriteResult(const LoadedModel&, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
                             const PageWriteOptions&)> write;
+  /// Called after each configured stage ("detector", "merger", "packer") with the context as the
+  /// stage left it (mesh, regions, atlas, layout), after the framework's checks. May be empty.
+  std::function<void(const std::string& section, const StageContext& ctx)> on_stage;
+  /// Section after which the run stops and returns the report so far ("" = run everything); no
+  /// file is written when the run stops early. E.g. "detector" to get the regions (eval views).
+  std::string stop_after;
 };
 
 /// Runs the pipeline. Returns the run report (also written as OUTDIR/<stem>.report.json).

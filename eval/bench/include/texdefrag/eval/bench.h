@@ -183,14 +183,16 @@ Image render_3d(const TexturedMesh& mesh, const std::vector<int>& face_colour, i
 /// Returns png_path. Throws ObjError/ImageError naming the file.
 std::string write_chart_render(const std::string& obj_path, const std::string& png_path, int size = 1024);
 
-/// Runs the configuration's detector on `mesh` (as read from `input_path`) in this process and
-/// returns its region per face; empty when the detector is detectors.none.
+/// The configuration's regions on the model at `input_path`: the framework runs the configuration up
+/// to its detector (run_pipeline with stop_after = "detector", in this process, same options and
+/// checks as a run). Empty when the detector yields at most one region (no region constraint).
+/// `mesh` must be the model read from input_path (its face count is checked).
 /// Throws ConfigError/StageError/BenchError.
 std::vector<int> detect_regions(const TexturedMesh& mesh, const std::string& config_path,
                                 const std::vector<std::string>& overrides, const std::string& input_path);
 
-/// Runs the configuration's detector on the model in this process and writes render_3d coloured by
-/// region to `png_path`. Returns "" (writes nothing) when the detector is detectors.none.
+/// detect_regions on the model, then render_3d coloured by region written to `png_path`. Returns ""
+/// (writes nothing) when the detector yields at most one region.
 /// Throws ConfigError/StageError/ObjError/BenchError.
 std::string write_region_render(const std::string& obj_path, const std::string& config_path,
                                 const std::vector<std::string>& overrides, const std::string& png_path,

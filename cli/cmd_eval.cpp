@@ -2,7 +2,7 @@
 // model and any tool's defragmented output.
 #include "texdefrag/eval/metrics.h"
 
-#include "commands.h"  // cli/commands.h
+#include "commands.h"
 
 #include <cmath>
 #include <cstdio>

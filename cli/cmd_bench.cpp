@@ -3,7 +3,7 @@
 #include "texdefrag/eval/bench.h"
 #include "texdefrag/util/paths.h"
 
-#include "commands.h"  // cli/commands.h
+#include "commands.h"
 
 #include <filesystem>
 #include <iostream>
@@ -15,9 +15,9 @@ namespace fs = std::filesystem;
 namespace texdefrag::cli {
 namespace {
 
-/// Runs eval/plots/plots.py on the results folder; returns a one-line status for the user.
+/// Runs eval/plots/plots.py (installed as share/texdefrag/plots/plots.py) on the results folder; returns a one-line status for the user.
 std::string run_plots(const std::string& results_dir) {
-  const std::string script = (fs::path(source_dir()) / "eval" / "plots" / "plots.py").string();
+  const std::string script = (fs::path(data_dir("plots")) / "plots.py").string();
   if (!fs::is_regular_file(script)) return "plots: script " + script + " not found; no figures written";
   const std::string python = python_executable();
   const bench::ChildResult r =
@@ -45,7 +45,7 @@ CLI::App* add_bench_command(CLI::App& app, int& exit_code) {
       "bench", "Run configurations on every model of a data set, evaluate, and tabulate (docs/bench.md)");
   bench::BenchOptions& o = args->o;
   sub->add_option("--data", o.data, "Folder of models (*.obj, recursively) or a manifest.json");
-  sub->add_option("--configs", o.configs, "Pipeline configuration files (labels are their file stems)");
+  sub->add_option("--configs", o.configs, "Pipeline configurations: files or shipped names (labels are their file stems)");
   sub->add_option("--out", o.out_dir, "Results folder (results.jsonl, results.csv, summary.json, runs/, figures)");
   sub->add_option("-j,--jobs", o.jobs, "Pairs run at once (each in its own process)")->check(CLI::Range(1, 64));
   sub->add_option("--set", o.sets, "Override an option of every configuration: STAGE.OPTION=VALUE (repeatable)");
@@ -78,6 +78,13 @@ CLI::App* add_bench_command(CLI::App& app, int& exit_code) {
     }
     if (o.data.empty() || o.out_dir.empty() || (o.configs.empty() && o.externals.empty())) {
       std::cerr << "texdefrag bench: --data, --out and at least one of --configs / --external are required\n";
+      exit_code = 2;
+      return;
+    }
+    try {
+      for (std::string& c : o.configs) c = resolve_config(c);
+    } catch (const ConfigNotFound& e) {
+      std::cerr << "texdefrag bench: " << e.what() << "\n";
       exit_code = 2;
       return;
     }

@@ -4,7 +4,7 @@
 //   texdefrag synth --preset hard --count 8 -o OUT       (hard data set)
 #include "texdefrag/synth/synth.h"
 
-#include "commands.h"  // cli/commands.h
+#include "commands.h"
 
 #include <chrono>
 #include <cstdio>

@@ -4,7 +4,7 @@
 #include "texdefrag/io/obj.h"
 #include "texdefrag/pipeline/pipeline.h"
 
-#include "commands.h"  // cli/commands.h
+#include "commands.h"
 
 #include <cstdio>
 #include <iostream>
