@@ -2,7 +2,7 @@
 //
 // Every stage, built-in or not, is a shared module exporting
 //   extern "C" int texdefrag_plugin_register(texdefrag::Registry* r, int abi_version);
-// (use TEXDEFRAG_PLUGIN below). Modules are loaded from the build's plugin folder (compiled in) and
+// (use TEXDEFRAG_PLUGIN below). Modules are loaded from lib/texdefrag/plugins beside libtexdefrag.so (util/paths.h) and
 // from each folder of TEXDEFRAG_PLUGIN_PATH (':'-separated). A name registered twice is an error
 // naming both module files; a module that fails to load is an error naming the file and dlerror().
 #pragma once
