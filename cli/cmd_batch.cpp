@@ -219,7 +219,7 @@ CLI::App* add_batch_command(CLI::App& app, int& exit_code) {
     ::setenv("PYTHONPATH", pythonpath.c_str(), 1);
     const std::string python = python_executable();
     std::vector<std::string> argv_s = {python, "-m", "texdefrag_batch", "--texdefrag", self.string(),
-                                       "--plots-dir", (fs::path(source_dir()) / "eval" / "plots").string()};
+                                       "--plots-dir", data_dir("plots")};
     for (const auto& a : sub->remaining()) argv_s.push_back(a);
     std::vector<char*> argv;
     for (auto& s : argv_s) argv.push_back(s.data());

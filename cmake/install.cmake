@@ -11,7 +11,7 @@ set(TEXDEFRAG_PLUGIN_ABI 1)  # = kPluginAbiVersion (framework/include/texdefrag/
 
 # --- build tree: share/texdefrag points at the sources ----------------------------------------
 file(MAKE_DIRECTORY ${CMAKE_BINARY_DIR}/share/texdefrag)
-foreach(pair "configs=configs" "plots=eval/plots" "examples=examples")
+foreach(pair "configs=configs" "plots=eval/plots" "examples=examples" "python=tools/batch")
   string(REPLACE "=" ";" pair ${pair})
   list(GET pair 0 link)
   list(GET pair 1 target)
