@@ -105,6 +105,7 @@ set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)  # dpkg-shlibdeps: Debian 12's runtime li
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS_PRIVATE_DIRS usr/lib)  # libtexdefrag.so is in this package
 set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS ON)
 set(TEXDEFRAG_DEB_EXTRA_DEPENDS "" CACHE STRING "Depends added to dpkg-shlibdeps' (comma-separated)")
-set(CPACK_DEBIAN_PACKAGE_DEPENDS "${TEXDEFRAG_DEB_EXTRA_DEPENDS}")
+set(deb_depends ${TEXDEFRAG_DEB_EXTRA_DEPENDS} ${TEXDEFRAG_PYTHON_DEB_DEPENDS})  # python/CMakeLists.txt
+list(JOIN deb_depends ", " CPACK_DEBIAN_PACKAGE_DEPENDS)
 set(CPACK_DEBIAN_PACKAGE_SUGGESTS "libeigen3-dev, nlohmann-json3-dev, libopenmesh-dev, cmake, g++, python3-matplotlib")
 include(CPack)
