@@ -7,7 +7,6 @@
 #include <texdefrag/stage/registry.h>
 
 #include <algorithm>
-#include <chrono>
 
 namespace {
 
@@ -27,7 +26,6 @@ class RowPacker final : public Packer {
     return i;
   }
   void pack(StageContext& ctx) override {
-    const auto t0 = std::chrono::steady_clock::now();
     const packing::CommonSettings s = packing::read_common(options());
     const int row_width = std::min(static_cast<int>(options().get_int("row_width")), s.max_page_size);
     const packing::PackInput in = packing::prepare_charts(ctx, s, info().name);
@@ -50,8 +48,7 @@ class RowPacker final : public Packer {
     }
     r.pages = order.empty() ? 0 : page + 1;
     packing::size_pages(in, s, r);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    packing::write_layout(ctx, in, r, ms);
+    packing::write_layout(ctx, in, r);
     (*ctx.report)["row_width"] = row_width;
   }
 };
