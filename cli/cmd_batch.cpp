@@ -137,11 +137,15 @@ json production_tasks(const std::string& input, const std::string& exclude) {
   if (fs::is_regular_file(in / "metadata.xml"))
     out["copies"].push_back({{"input", normal_absolute(in / "metadata.xml").string()}, {"output", "metadata.xml"}});
   if (fs::is_regular_file(in / "metadata.xml", ec)) {
-    // A ContextCapture production (production/production.h): each task's level from its name.
+    // A ContextCapture production (production/production.h): the level is the number in the name
+    // (level_of above); a tile without one (the root .osgb of a Tile_* folder) takes the
+    // production's name for it ("root").
     const Production p = list_production(input, "");
     for (json& t : out["tasks"])
       for (const ProductionTask& pt : p.tasks)
-        if (normal_absolute(pt.input).string() == t["input"].get<std::string>() && !pt.level.empty()) t["level"] = pt.level;
+        if (t["level"].is_null() && normal_absolute(pt.input).string() == t["input"].get<std::string>() &&
+            !pt.level.empty())
+          t["level"] = pt.level;
   }
   if (out["tasks"].empty())
     throw std::runtime_error(input + ": no model file found (formats: " + format_names() +

@@ -48,13 +48,18 @@ Production list_production(const std::string& input, const std::string& output_d
   std::error_code ec;
   const bool cc = fs::is_regular_file(fs::path(input) / "metadata.xml", ec);
   p.kind = cc ? "contextcapture" : "obj_folder";
-  const std::string task_ext = cc ? "osgb" : "obj";
   std::vector<fs::path> files;
   for (auto it = fs::recursive_directory_iterator(input, ec); !ec && it != fs::recursive_directory_iterator();
        it.increment(ec))
     if (it->is_regular_file()) files.push_back(fs::relative(it->path(), input));
   if (ec) throw FormatError(input + ": cannot list the folder: " + ec.message());
   std::sort(files.begin(), files.end());
+  // ContextCapture ships its productions as OSGB or as OBJ, both with metadata.xml: the tiles are
+  // the .osgb files when there are any, else the .obj files.
+  const bool has_osgb = std::any_of(files.begin(), files.end(),
+                                    [](const fs::path& f) { return lower_extension(f.string()) == "osgb"; });
+  const std::string task_ext = cc && has_osgb ? "osgb" : "obj";
+  const bool obj_tiles = task_ext == "obj";
   bool tileset = false;
   for (const fs::path& rel : files) {
     const std::string e = lower_extension(rel.string());
@@ -66,7 +71,7 @@ Production list_production(const std::string& input, const std::string& output_d
       t.stem = rel.stem().string();
       t.level = level_of(rel);
       p.tasks.push_back(t);
-    } else if (cc || !(e == "obj" || e == "mtl" || is_image_ext(e))) {
+    } else if (!obj_tiles || !(e == "mtl" || is_image_ext(e))) {
       p.copies.push_back(rel.generic_string());
     }
     tileset = tileset || rel.filename() == "tileset.json";
@@ -76,7 +81,7 @@ Production list_production(const std::string& input, const std::string& output_d
       throw FormatError(input + ": a 3D Tiles production (tileset.json) is not supported yet; folders of OBJ "
                         "tiles and ContextCapture OSGB productions (metadata.xml) are");
     throw FormatError(input + ": no " + task_ext + " tile in this folder" +
-                      (cc ? " (a ContextCapture production: metadata.xml with Tile_*/ folders of .osgb files)"
+                      (cc ? " (a ContextCapture production: metadata.xml with Tile_*/ folders of .osgb or .obj files)"
                           : " (expected .obj tiles, or a metadata.xml and .osgb tiles)"));
   }
   return p;

@@ -213,7 +213,10 @@ void Engine::free_region(Move& mv) {
     pq.emplace(0.0, r);
   }
   while (!pq.empty() && static_cast<int>(mv.free_w.size()) < opt_.max_free_vertices) {
-    const auto [d, w] = pq.top();
+    // note: plain variables, not a structured binding: the lambdas below capture them (C++17 and
+    // Clang 14 do not allow capturing structured bindings).
+    const double d = pq.top().first;
+    const int w = pq.top().second;
     pq.pop();
     if (wdone_[static_cast<size_t>(w)] == epoch_ || d > dist(w)) continue;
     wdone_[static_cast<size_t>(w)] = epoch_;
