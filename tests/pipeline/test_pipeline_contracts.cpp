@@ -1,6 +1,7 @@
 // Contracts the framework checks after each stage (issue 11): a detector's regions partition the
 // textured faces, packed charts overlap no more than the input's, every output UV lies on its page,
 // and stages cannot write the framework's report keys. Each is shown with a stage that breaks it.
+#include "texdefrag/core/uv_overlap.h"
 #include "texdefrag/io/image.h"
 #include "texdefrag/io/obj.h"
 #include "texdefrag/pipeline/pipeline.h"
@@ -14,6 +15,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 
 namespace fs = std::filesystem;
 using namespace texdefrag;
@@ -65,6 +67,58 @@ class ForgingDetector final : public Detector {
   }
 };
 
+/// Output triangles (texels) of a layout, all on one page.
+std::vector<std::array<Vec2, 3>> layout_triangles(const StageContext& ctx) {
+  std::vector<std::array<Vec2, 3>> tris;
+  for (size_t f = 0; f < ctx.atlas.face_wedge.size(); ++f) {
+    if (ctx.atlas.face_chart[f] < 0) continue;
+    std::array<Vec2, 3> t;
+    for (size_t k = 0; k < 3; ++k) t[k] = ctx.layout.wedge_uv[static_cast<size_t>(ctx.atlas.face_wedge[f][k])];
+    tris.push_back(t);
+  }
+  return tris;
+}
+
+/// The wedge of the atlas at texel position p (the test meshes have one wedge per UV).
+size_t wedge_at(const Atlas& a, const Vec2& p) {
+  for (size_t w = 0; w < a.wedge_uv.size(); ++w)
+    if ((a.wedge_uv[w] - p).norm() < 1e-9) return w;
+  throw std::runtime_error("no wedge at the test position");
+}
+
+/// A packer that turns every chart by 30 degrees (as square_tetris's free rotation does) and moves
+/// it to (10, 10) on a 128^2 page, then moves wedge M of chart_with_zero_area_face 1e-11 texels
+/// across the diagonal AC towards D: the size of the rounding of a coordinate near 2^15 texels
+/// (whether rounding moves M to that side is luck; the test makes it certain). Keeps, in
+/// `exact_pairs`, the overlapping pairs of its layout by the exact predicates (no area threshold).
+class RotatingPacker final : public Packer {
+ public:
+  static inline size_t exact_pairs = 0;
+  void pack(StageContext& ctx) override {
+    const Atlas& a = ctx.atlas;
+    const double c = std::sqrt(3.0) / 2, s = 0.5;  // 30 degrees
+    ctx.layout.pages = {{128, 128}};
+    ctx.layout.chart_page.assign(static_cast<size_t>(a.num_charts), 0);
+    ctx.layout.wedge_uv.resize(a.wedge_uv.size());
+    Vec2 lo(1e300, 1e300);
+    for (size_t w = 0; w < a.wedge_uv.size(); ++w) {
+      const Vec2& p = a.wedge_uv[w];
+      ctx.layout.wedge_uv[w] = Vec2(c * p.x() - s * p.y(), s * p.x() + c * p.y());
+      lo = lo.cwiseMin(ctx.layout.wedge_uv[w]);
+    }
+    for (Vec2& p : ctx.layout.wedge_uv) p += Vec2(10.0, 10.0) - lo;
+    const Vec2 towards_d(-c - s, c - s);  // (-1, 1) turned by 30 degrees, length sqrt(2)
+    ctx.layout.wedge_uv[wedge_at(a, Vec2(19.2, 19.2))] += 1e-11 / std::sqrt(2.0) * towards_d;
+    exact_pairs = count_overlapping_pairs(layout_triangles(ctx));
+  }
+};
+
+/// A merger that moves M of chart_with_zero_area_face to (0.29, 0.31) * 64, across the diagonal AC.
+class FoldingMerger final : public Merger {
+ public:
+  void merge(StageContext& ctx) override { ctx.atlas.wedge_uv[wedge_at(ctx.atlas, Vec2(19.2, 19.2))] = Vec2(18.56, 19.84); }
+};
+
 template <class S>
 void register_once(const std::string& name, StageKind kind) {
   Registry& r = Registry::instance();
@@ -84,6 +138,31 @@ std::string model(const std::string& dir) {
   texdefrag::testing::write_surface_texture(m, 0, dir + "/page.png");
   write_obj(m, dir + "/small.obj");
   return dir + "/small.obj";
+}
+
+/// One chart of four faces on a 64^2 page, written as OBJ: the UV square A(0.1, 0.1), B(0.5, 0.1),
+/// C(0.5, 0.5), D(0.1, 0.5) cut along its diagonal AC, with M(0.3, 0.3) on the diagonal. Faces
+/// ABM, BCM, ACD tile the square (no two overlap), AMC has zero UV area (its corners lie on AC;
+/// in 3D, M is lifted off the plane, so the face is not degenerate there): the configuration of
+/// Matterport's zero-UV-area faces (issue 12). Input overlaps: 0.
+std::string chart_with_zero_area_face(const std::string& dir) {
+  TexturedMesh m = texdefrag::testing::grid_mesh(1, 1, 64, dir + "/page.png");
+  m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), Vec3(0.5, 0.5, 0.2)};
+  m.texcoords = {Vec2(0.1, 0.1), Vec2(0.5, 0.1), Vec2(0.5, 0.5), Vec2(0.1, 0.5), Vec2(0.3, 0.3)};
+  const int A = 0, B = 1, C = 2, D = 3, M = 4;
+  const std::array<std::array<int, 3>, 4> faces = {{{A, B, M}, {B, C, M}, {A, C, D}, {A, M, C}}};
+  const Face proto = m.faces.at(0);
+  m.faces.clear();
+  for (size_t i = 0; i < faces.size(); ++i) {
+    Face f = proto;
+    f.v = f.vt = faces[i];
+    f.vn = {kNoIndex, kNoIndex, kNoIndex};
+    f.source_line = static_cast<int>(i) + 1;
+    m.faces.push_back(f);
+  }
+  texdefrag::testing::write_surface_texture(m, 0, dir + "/page.png");
+  write_obj(m, dir + "/zero_area.obj");
+  return dir + "/zero_area.obj";
 }
 
 std::string run_error(const json& cfg, const std::string& dir) {
@@ -115,6 +194,63 @@ TEST(PipelineContracts, PackedChartsMayNotOverlapMoreThanTheInput) {
   EXPECT_NE(e.find("packers.test_stacking: the packed charts overlap in"), std::string::npos) << e;
   EXPECT_NE(e.find("the input only in 0"), std::string::npos) << e;
   EXPECT_FALSE(fs::exists(dir + "/out/small.obj"));
+}
+
+// Issue 12: moving a chart rounds its coordinates. Its zero-area face AMC becomes a sliver that the
+// exact predicates see overlapping ACD (and ABM, BCM cross AC by as much): overlaps of ~1e-10
+// texels^2, no texel; the packer that only moved the chart must pass the check.
+TEST(PipelineContracts, RoundingSliversOfAMovedChartAreNoOverlap) {
+  register_once<RotatingPacker>("packers.test_rotating", StageKind::Packer);
+  const std::string dir = texdefrag::testing::temp_dir();
+  RunOptions ro;
+  ro.input = chart_with_zero_area_face(dir);
+  ro.output_dir = dir + "/out";
+  const json cfg = {{"detector", {{"type", "detectors.none"}}}, {"merger", {{"type", "mergers.none"}}},
+                    {"packer", {{"type", "packers.test_rotating"}}}};
+  const json report = run_pipeline(parse_config(cfg, "<test>"), ro);
+  EXPECT_EQ(report["input_stats"]["charts"]["charts"], 1) << report["input_stats"].dump();
+  EXPECT_EQ(report["input_stats"]["uv_overlap_pairs"], 0);
+  // The premise: the rotation did turn AMC into a sliver the exact predicates count (otherwise this
+  // test shows nothing; it failed the check before the area threshold).
+  EXPECT_GE(RotatingPacker::exact_pairs, 1u);
+  EXPECT_EQ(report["stages"]["packers.test_rotating"]["uv_overlap_pairs"], 0);
+  EXPECT_TRUE(fs::exists(dir + "/out/zero_area.obj"));
+}
+
+// Issue 12: a merger that moves M across the diagonal flips AMC over ACD (what mergers.arap did to
+// Matterport's zero-area faces). By hand: AMC now overlaps ACD, ABM and BCM, and ABM and BCM cross
+// AC into ACD: 5 pairs, against 0 in the input. The merger is named, not the packer after it.
+TEST(PipelineContracts, MergedChartsMayNotOverlapThemselvesMoreThanTheInput) {
+  register_once<FoldingMerger>("mergers.test_folding", StageKind::Merger);
+  const std::string dir = texdefrag::testing::temp_dir();
+  RunOptions ro;
+  ro.input = chart_with_zero_area_face(dir);
+  ro.output_dir = dir + "/out";
+  const json cfg = {{"detector", {{"type", "detectors.none"}}}, {"merger", {{"type", "mergers.test_folding"}}},
+                    {"packer", {{"type", "packers.square_tetris"}}}};
+  std::string e;
+  try {
+    run_pipeline(parse_config(cfg, "<test>"), ro);
+  } catch (const StageError& x) {
+    e = x.what();
+  }
+  EXPECT_NE(e.find("mergers.test_folding: the merged charts overlap themselves in 5 pairs of UV triangles, the input only in 0"),
+            std::string::npos) << e;
+  EXPECT_FALSE(fs::exists(dir + "/out/zero_area.obj"));
+}
+
+// The threshold of the framework's count, by hand: a sliver overlapping a triangle by 1e-9 does
+// not count at min_area 1e-6, a quarter-texel overlap does; min_area 0 is the exact count.
+TEST(PipelineContracts, OverlapCountAreaThreshold) {
+  const std::array<Vec2, 3> t = {Vec2(0, 0), Vec2(2, 0), Vec2(0, 2)};                 // area 2
+  const std::array<Vec2, 3> sliver = {Vec2(0, 1), Vec2(2, 1), Vec2(1, 1 + 2e-9)};      // area 2e-9, x <= 1 in t
+  const std::array<Vec2, 3> corner = {Vec2(0.5, 0.5), Vec2(1.5, 0.5), Vec2(0.5, 1.5)};  // overlaps t by 0.5
+  EXPECT_NEAR(triangle_intersection_area(t, corner), 0.5, 1e-12);
+  EXPECT_NEAR(triangle_intersection_area(t, sliver), 1e-9, 1e-15);
+  EXPECT_EQ(count_overlapping_pairs({t, sliver}), 1u);
+  EXPECT_EQ(count_overlapping_pairs({t, sliver}, 1e-6), 0u);
+  EXPECT_EQ(count_overlapping_pairs({t, corner}, 1e-6), 1u);
+  EXPECT_EQ(count_overlapping_pairs({t, sliver, corner}, 1e-6), 1u);  // sliver x corner: 7.5e-10
 }
 
 TEST(PipelineContracts, StagesCannotWriteTheFrameworksReportKeys) {

@@ -94,7 +94,32 @@ bool triangle_interiors_overlap(const std::array<Vec2, 3>& a, const std::array<V
   return !separated_by_edges_of(a, b) && !separated_by_edges_of(b, a);
 }
 
-size_t count_overlapping_pairs(const std::vector<std::array<Vec2, 3>>& all) {
+double triangle_intersection_area(const std::array<Vec2, 3>& a, const std::array<Vec2, 3>& b) {
+  const auto cross = [](const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(); };
+  const double sb = cross(b[1] - b[0], b[2] - b[0]);
+  if (sb == 0 || cross(a[1] - a[0], a[2] - a[0]) == 0) return 0;
+  // Sutherland-Hodgman: keep the part of `a` on the inner side of each edge of `b`.
+  std::vector<Vec2> poly(a.begin(), a.end()), out;
+  for (size_t k = 0; k < 3 && !poly.empty(); ++k) {
+    const Vec2& p = b[k];
+    const Vec2 e = b[(k + 1) % 3] - p;
+    const auto side = [&](const Vec2& v) { return sb > 0 ? cross(e, v - p) : -cross(e, v - p); };
+    out.clear();
+    for (size_t i = 0; i < poly.size(); ++i) {
+      const Vec2& u = poly[i];
+      const Vec2& v = poly[(i + 1) % poly.size()];
+      const double su = side(u), sv = side(v);
+      if (su >= 0) out.push_back(u);
+      if ((su >= 0) != (sv >= 0)) out.push_back(u + (v - u) * (su / (su - sv)));
+    }
+    poly.swap(out);
+  }
+  double twice = 0;
+  for (size_t i = 0; i < poly.size(); ++i) twice += cross(poly[i], poly[(i + 1) % poly.size()]);
+  return std::abs(twice) / 2;
+}
+
+size_t count_overlapping_pairs(const std::vector<std::array<Vec2, 3>>& all, double min_area) {
   std::vector<const std::array<Vec2, 3>*> tris;
   tris.reserve(all.size());
   for (const auto& t : all)
@@ -157,7 +182,9 @@ size_t count_overlapping_pairs(const std::vector<std::array<Vec2, 3>>& all) {
           if (!(a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1)) continue;
           // Test each pair once: in the cell holding the low corner of the boxes' intersection.
           if (cx(std::max(a.x0, b.x0)) != x || cy(std::max(a.y0, b.y0)) != y) continue;
-          if (triangle_interiors_overlap(*tris[items[p]], *tris[items[q]])) ++count;
+          if (!triangle_interiors_overlap(*tris[items[p]], *tris[items[q]])) continue;
+          if (min_area > 0 && triangle_intersection_area(*tris[items[p]], *tris[items[q]]) <= min_area) continue;
+          ++count;
         }
     }
   return count;

@@ -3,19 +3,27 @@
 // packing efficiency, output megapixels and packing time. Used to measure the tables in
 // docs/packers.md without re-running the merger for every packer variant.
 //
-//   pack_lab CONFIG.json MODEL.obj CACHE.atlas [PACKER[:KEY=VALUE,...]]...
+//   pack_lab CONFIG.json MODEL CACHE.atlas [PACKER[:KEY=VALUE,...]]...
 //
+// MODEL: any model file texdefrag reads, or glTF files sharing an atlas joined by '+' (read as one
+// model). With the environment variable PACK_LAB_OVERLAPS set, also prints overlapping UV triangle
+// pairs of the input, the merged atlas and every packing, split into pairs inside one chart and
+// across charts, by intersection area, and the pairs each step added.
 // CACHE.atlas is written when missing (detector + merger of CONFIG) and read otherwise. Each
 // PACKER (e.g. packers.square_tetris:gutter=4,width_trials=8) is run on the cached atlas; one line
 // per packer: model, packer, charts, efficiency, output MP, input MP, wall ms, CPU ms (square_tetris
 // with an outline tail adds: UV area / outline texels, outline / dilated outline, dilated / page).
 #include "texdefrag/core/charts.h"
 #include "texdefrag/core/topology.h"
-#include "texdefrag/io/obj.h"
+#include "texdefrag/core/uv_overlap.h"
+#include "texdefrag/io/gltf_format.h"
+#include "texdefrag/io/model_format.h"
 #include "texdefrag/pipeline/pipeline.h"
 #include "texdefrag/stage/registry.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <ctime>
 #include <cstdio>
 #include <filesystem>
@@ -74,16 +82,142 @@ Atlas load_atlas(const std::string& path) {
   return a;
 }
 
+/// Overlapping pairs of UV triangles of one UV state, split by whether both faces are in the same
+/// chart (per page; page = chart's input page, or its output page with a layout), and the number of
+/// faces with zero UV area. Sweep over x with the exact test of core/uv_overlap.h.
+struct OverlapSplit {
+  size_t same_chart = 0, cross_chart = 0, zero_area = 0;
+  size_t above[3] = {0, 0, 0};  ///< pairs whose intersection area exceeds 1e-8, 1e-6, 1e-4 texels^2
+  std::vector<std::pair<int, int>> pairs;  ///< face pairs, smaller face first
+};
+
+/// Area of the intersection of two triangles (convex clipping, double precision).
+double intersection_area(const std::array<Vec2, 3>& a, const std::array<Vec2, 3>& b) {
+  std::vector<Vec2> poly(a.begin(), a.end());
+  const double sb = (b[1] - b[0]).x() * (b[2] - b[0]).y() - (b[1] - b[0]).y() * (b[2] - b[0]).x();
+  for (int k = 0; k < 3 && !poly.empty(); ++k) {
+    const Vec2 p = b[static_cast<size_t>(k)], q = b[static_cast<size_t>((k + 1) % 3)];
+    auto side = [&](const Vec2& v) { return ((q - p).x() * (v - p).y() - (q - p).y() * (v - p).x()) * (sb > 0 ? 1 : -1); };
+    std::vector<Vec2> out;
+    for (size_t i = 0; i < poly.size(); ++i) {
+      const Vec2 u = poly[i], v = poly[(i + 1) % poly.size()];
+      const double su = side(u), sv = side(v);
+      if (su >= 0) out.push_back(u);
+      if ((su >= 0) != (sv >= 0)) out.push_back(u + (v - u) * (su / (su - sv)));
+    }
+    poly = out;
+  }
+  double area = 0;
+  for (size_t i = 0; i < poly.size(); ++i) {
+    const Vec2 u = poly[i], v = poly[(i + 1) % poly.size()];
+    area += u.x() * v.y() - u.y() * v.x();
+  }
+  return std::abs(area) / 2;
+}
+
+OverlapSplit overlap_split(const TexturedMesh& mesh, const Atlas& a, const Layout* layout) {
+  struct Tri {
+    std::array<Vec2, 3> p;
+    double x0, x1, y0, y1;
+    int chart, page, face;
+  };
+  std::vector<Tri> tris;
+  OverlapSplit r;
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    if (a.face_chart[f] < 0) continue;
+    Tri t;
+    t.chart = a.face_chart[f];
+    t.face = static_cast<int>(f);
+    t.page = layout ? layout->chart_page[static_cast<size_t>(t.chart)] : a.chart_page[static_cast<size_t>(t.chart)];
+    for (size_t k = 0; k < 3; ++k) {
+      const size_t w = static_cast<size_t>(a.face_wedge[f][k]);
+      t.p[k] = layout ? layout->wedge_uv[w] : a.wedge_uv[w];
+    }
+    if (orient2d(t.p[0], t.p[1], t.p[2]) == 0) { ++r.zero_area; continue; }
+    t.x0 = std::min({t.p[0].x(), t.p[1].x(), t.p[2].x()});
+    t.x1 = std::max({t.p[0].x(), t.p[1].x(), t.p[2].x()});
+    t.y0 = std::min({t.p[0].y(), t.p[1].y(), t.p[2].y()});
+    t.y1 = std::max({t.p[0].y(), t.p[1].y(), t.p[2].y()});
+    tris.push_back(t);
+  }
+  std::sort(tris.begin(), tris.end(), [](const Tri& u, const Tri& v) { return u.x0 < v.x0; });
+  for (size_t i = 0; i < tris.size(); ++i)
+    for (size_t j = i + 1; j < tris.size() && tris[j].x0 < tris[i].x1; ++j) {
+      const Tri &u = tris[i], &v = tris[j];
+      if (u.page != v.page || !(u.y0 < v.y1 && v.y0 < u.y1)) continue;
+      if (!triangle_interiors_overlap(u.p, v.p)) continue;
+      (u.chart == v.chart ? r.same_chart : r.cross_chart)++;
+      if (u.chart == v.chart || layout) {
+        const double ar = intersection_area(u.p, v.p);
+        r.above[0] += ar > 1e-8;
+        r.above[1] += ar > 1e-6;
+        r.above[2] += ar > 1e-4;
+      }
+      // note: unpacked charts overlap each other freely; only pairs inside a chart are compared
+      if (u.chart == v.chart || layout) r.pairs.emplace_back(std::min(u.face, v.face), std::max(u.face, v.face));
+    }
+  std::sort(r.pairs.begin(), r.pairs.end());
+  return r;
+}
+
+std::array<Vec2, 3> face_uv(const Atlas& a, const Layout* layout, int f) {
+  std::array<Vec2, 3> t;
+  for (size_t k = 0; k < 3; ++k) {
+    const size_t w = static_cast<size_t>(a.face_wedge[static_cast<size_t>(f)][k]);
+    t[k] = layout ? layout->wedge_uv[w] : a.wedge_uv[w];
+  }
+  return t;
+}
+
+/// Prints the pairs of `now` that `before` lacks: intersection area, UV areas before of both faces.
+void print_new_pairs(const char* what, const OverlapSplit& before, const OverlapSplit& now, const Atlas& ab,
+                     const Atlas& an, const Layout* layout, size_t max_lines) {
+  std::vector<std::pair<int, int>> added;
+  std::set_difference(now.pairs.begin(), now.pairs.end(), before.pairs.begin(), before.pairs.end(),
+                      std::back_inserter(added));
+  std::vector<std::pair<int, int>> gone;
+  std::set_difference(before.pairs.begin(), before.pairs.end(), now.pairs.begin(), now.pairs.end(),
+                      std::back_inserter(gone));
+  int hist[8] = {0};
+  for (const auto& [f, g] : added) {
+    const double ar = intersection_area(face_uv(an, layout, f), face_uv(an, layout, g));
+    int b = 0;
+    for (double t = 1e-12; b < 7 && ar > t; t *= 100) ++b;
+    ++hist[b];
+  }
+  std::printf("%s: %zu pairs added, %zu gone; added by intersection area (texels^2) <=1e-12: %d, <=1e-10: %d, <=1e-8: %d, "
+              "<=1e-6: %d, <=1e-4: %d, <=1e-2: %d, <=1: %d, >1: %d\n", what, added.size(), gone.size(), hist[0], hist[1],
+              hist[2], hist[3], hist[4], hist[5], hist[6], hist[7]);
+  for (size_t i = 0; i < added.size() && i < max_lines; ++i) {
+    const auto [f, g] = added[i];
+    std::printf("  faces %d %d: area now %.3g, face areas before %.3g %.3g, now %.3g %.3g\n", f, g,
+                intersection_area(face_uv(an, layout, f), face_uv(an, layout, g)), atlas_face_area(ab, f),
+                atlas_face_area(ab, g), layout ? 0.0 : atlas_face_area(an, f), layout ? 0.0 : atlas_face_area(an, g));
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 4) {
-    std::cerr << "usage: pack_lab CONFIG.json MODEL.obj CACHE.atlas [PACKER[:KEY=VALUE,...]]...\n";
+    std::cerr << "usage: pack_lab CONFIG.json MODEL CACHE.atlas [PACKER[:KEY=VALUE,...]]...\n";
     return 2;
   }
   try {
     const PipelineConfig cfg = load_config(argv[1]);
-    const TexturedMesh mesh = read_obj(argv[2]);
+    // note: "A.glb+B.glb+..." reads glTF files sharing an atlas as one model, as a tileset run does.
+    const std::string model_arg = argv[2];
+    LoadedModel loaded;
+    if (model_arg.find('+') != std::string::npos) {
+      std::vector<GltfInput> group;
+      std::stringstream ms(model_arg);
+      std::string part;
+      while (std::getline(ms, part, '+')) group.push_back(GltfInput{part, {}, ""});
+      loaded = GltfFormat().read_group(group, std::filesystem::path(group[0].path).parent_path().string());
+    } else {
+      loaded = format_for_input(model_arg).read(model_arg);
+    }
+    const TexturedMesh& mesh = loaded.mesh;
     const Topology topo = build_topology(mesh);
     const ChartSet charts = build_charts(mesh, topo);
     Registry& reg = Registry::instance();
@@ -111,6 +245,16 @@ int main(int argc, char** argv) {
     double in_mp = 0;
     for (const Page& p : mesh.pages) in_mp += static_cast<double>(p.width) * p.height / 1e6;
     const std::string model = std::filesystem::path(argv[2]).stem().string();
+    const bool overlaps = std::getenv("PACK_LAB_OVERLAPS") != nullptr;
+    if (overlaps) {
+      const OverlapSplit in = overlap_split(mesh, charts.atlas, nullptr);
+      const OverlapSplit mg = overlap_split(mesh, ctx.atlas, nullptr);
+      std::printf("overlaps input: same-chart %zu cross-chart %zu zero-area %zu; merged: same %zu cross %zu zero %zu\n",
+                  in.same_chart, in.cross_chart, in.zero_area, mg.same_chart, mg.cross_chart, mg.zero_area);
+      std::printf("pairs inside charts with area > 1e-8/1e-6/1e-4: input %zu/%zu/%zu merged %zu/%zu/%zu\n", in.above[0],
+                  in.above[1], in.above[2], mg.above[0], mg.above[1], mg.above[2]);
+      print_new_pairs("merger", in, mg, charts.atlas, ctx.atlas, nullptr, 12);
+    }
     for (int i = 4; i < argc; ++i) {
       std::string spec = argv[i], name = spec, opts;
       const auto colon = spec.find(':');
@@ -150,6 +294,12 @@ int main(int argc, char** argv) {
                     rep.value("chart_uv_area", 0.0) / rep["outline_texels"].get<double>(),
                     rep["outline_texels"].get<double>() / rep["padded_outline_texels"].get<double>(),
                     rep["padded_outline_texels"].get<double>() / (mp * 1e6));
+      if (overlaps) {
+        const OverlapSplit o = overlap_split(mesh, pc.atlas, &pc.layout);
+        std::printf("\tpacked overlaps: same %zu cross %zu zero %zu\n", o.same_chart, o.cross_chart, o.zero_area);
+        std::printf("packed pairs with area > 1e-8/1e-6/1e-4: %zu/%zu/%zu\n", o.above[0], o.above[1], o.above[2]);
+        print_new_pairs("packer", overlap_split(mesh, ctx.atlas, nullptr), o, ctx.atlas, pc.atlas, &pc.layout, 5);
+      }
       std::printf("\n");
     }
   } catch (const std::exception& e) {

@@ -15,7 +15,14 @@ namespace texdefrag {
 /// Exact: orientation predicates with an exact fallback. Broad phase: a uniform grid; O(n) for
 /// evenly sized triangles (100k triangles in well under a second).
 /// tris: triangles in any 2D units (for an atlas: texels of one page); may be empty.
-size_t count_overlapping_pairs(const std::vector<std::array<Vec2, 3>>& tris);
+/// min_area: a pair counts only when the area of its intersection (triangle_intersection_area)
+/// exceeds this, in the squared units of `tris`; 0 (default): every interior intersection counts.
+size_t count_overlapping_pairs(const std::vector<std::array<Vec2, 3>>& tris, double min_area = 0);
+
+/// Area of the intersection of two triangles (any orientation; 0 when either has zero area), by
+/// clipping one with the other's edges in double precision: accurate to about the rounding of the
+/// coordinates times the triangles' extent (area units of the inputs).
+double triangle_intersection_area(const std::array<Vec2, 3>& a, const std::array<Vec2, 3>& b);
 
 /// Sign of the orientation of (a, b, c): +1 counter-clockwise, -1 clockwise, 0 collinear. Exact for
 /// all finite inputs (floating-point filter, then exact expansion arithmetic).
