@@ -9,6 +9,7 @@
 #include "texdefrag/pipeline/pipeline.h"
 #include "texdefrag/production/production.h"
 #include "texdefrag/stage/describe.h"
+#include "texdefrag/util/parallel.h"
 #include "texdefrag/util/paths.h"
 
 #include <CLI/CLI.hpp>
@@ -114,11 +115,15 @@ int main(int argc, char** argv) {
   run->add_flag("--quiet,-q", quiet, "No progress bar and no summary line");
   run->add_flag("--no-write", no_write, "Run the stages and report, write nothing");
   run->add_flag("--report", print_report, "Print the run report JSON on standard output");
+  int threads = 0;
+  run->add_option("--threads", threads, "Threads inside the run (0 = every core; the output does not depend on it)")
+      ->check(CLI::Range(0, 1024));
   bool allow_missing = false;
   run->add_flag("--allow-missing-children", allow_missing,
                 "Process models whose referenced child files (OSGB PagedLOD levels) are missing; listed in the report");
   run->callback([&] {
     exit_code = guarded([&] {
+      set_thread_count(threads);
       const PipelineConfig cfg = load_config(resolve_config(config_path.empty() ? kDefaultConfig : config_path), sets);
       if (output_dir.empty() && !no_write) {
         std::cerr << "texdefrag run: -o OUTDIR is required (or --no-write)\n";

@@ -2,6 +2,7 @@
 // in-memory images, with texel values computed by hand from the conventions of docs/texture.md:
 // texel (i, j) of a W x H page has its centre at (i + 0.5, H - j - 0.5) in texel space (y up).
 #include "texdefrag/texture/resample.h"
+#include "texdefrag/util/parallel.h"
 
 #include <gtest/gtest.h>
 
@@ -721,6 +722,37 @@ TEST(TextureResample, LeastSquaresFitBeatsSamplingOnRotatedCharts) {
   compare("rotation 45 deg", 45 * 3.141592653589793 / 180, Vec2(48.3, 47.6), 96);
   // Pages are fitted in windows of 1024 texels: a chart across a window border gains as much.
   compare("across a fit window border", 0.5, Vec2(1024.3, 1030.6), 1100);
+}
+
+TEST(TextureResample, LeastSquaresFitIsTheSameForAnyThreadCount) {
+  // A page of 4 x 3 fit windows (wavefronts with two windows at once) with charts across window
+  // borders and corners: the texels are identical with 1, 2 and 4 threads (docs/framework.md,
+  // "Threads").
+  const Image img = photo_like(64, 64);
+  Scene s;
+  const int in = s.add_input_page(img);
+  const int out = s.add_output_page(3200, 2200);
+  const Vec2 centres[] = {{1024.3, 1030.6}, {2048.7, 1023.2}, {3070.1, 40.9}, {40.5, 2100.2}, {1500.5, 1500.5}, {2047.9, 2048.1}};
+  double rad = 0.3;
+  for (const Vec2& c : centres) {
+    const auto map = [rad, c](const Vec2& p) -> Vec2 {
+      const Vec2 d = p - Vec2(32, 32);
+      return c + Vec2(std::cos(rad) * d.x() - std::sin(rad) * d.y(), std::sin(rad) * d.x() + std::cos(rad) * d.y());
+    };
+    s.add_rect(s.add_chart(in, out), 8, 8, 56, 56, map);
+    rad += 0.4;
+  }
+  std::vector<Image> pages[3];
+  const int threads[] = {1, 2, 4};
+  for (int k = 0; k < 3; ++k) {
+    set_thread_count(threads[k]);
+    ResampleStats st;
+    pages[k] = s.run(fit_opts(TexelFit::LeastSquares), &st);
+    EXPECT_GT(st.texels_fitted, 6000u);
+  }
+  set_thread_count(0);
+  EXPECT_TRUE(pages[0][0].pixels == pages[1][0].pixels);
+  EXPECT_TRUE(pages[0][0].pixels == pages[2][0].pixels);
 }
 
 TEST(TextureResample, LeastSquaresFitKeepsLinearRampsAndCopiedTexels) {

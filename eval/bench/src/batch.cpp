@@ -62,7 +62,7 @@ void fail(json& r, const std::string& step, const std::string& error) {
 /// The run report's per-stage time and peak memory (and the stage's own scalar figures).
 json run_figures(const json& report) {
   json run = json::object();
-  for (const char* k : {"total_time_s", "peak_rss_bytes"})
+  for (const char* k : {"total_time_s", "total_cpu_s", "peak_rss_bytes", "threads"})
     if (report.contains(k)) run[k] = report[k];
   json stages = json::object();
   if (report.contains("stages") && report["stages"].is_object())
@@ -129,6 +129,7 @@ json run_pair(const BenchOptions& o, const std::string& exe, const BenchConfig& 
     std::vector<std::string> argv = {exe, "run", m.path, "--config", c.path};
     for (const auto& s : c.overrides) argv.insert(argv.end(), {"--set", s});
     argv.insert(argv.end(), {"-o", dir.string(), "--quiet", "--report"});
+    if (o.threads >= 0) argv.insert(argv.end(), {"--threads", std::to_string(o.threads)});
     const ChildResult run = run_child(argv, (dir / "bench_run").string(), o.timeout_s);
     json figures = json::object();
     r["run"] = {{"exit_code", run.exit_code}, {"wall_s", run.wall_s}, {"child_max_rss_bytes", run.max_rss_bytes}};

@@ -8,6 +8,7 @@
 
 #include "texdefrag/io/image.h"
 #include "texdefrag/io/output_set.h"
+#include "texdefrag/util/parallel.h"
 
 #include <unistd.h>
 
@@ -560,6 +561,21 @@ void append_int(std::string& out, long i) {
   out.append(buf, static_cast<size_t>(r.ptr - buf));
 }
 
+/// Formats items [0, n) with line(out, i) in blocks on the framework's threads and appends the
+/// blocks to `pieces` in order (`bytes` = expected bytes per item, for reserving).
+template <class F>
+void format_blocks(std::vector<std::string>& pieces, size_t n, size_t bytes, const F& line) {
+  constexpr size_t kBlock = 1 << 12;
+  const size_t blocks = (n + kBlock - 1) / kBlock, first = pieces.size();
+  pieces.resize(first + blocks);
+  parallel_for(blocks, [&](size_t b) {
+    std::string& out = pieces[first + b];
+    const size_t lo = b * kBlock, hi = std::min(n, lo + kBlock);
+    out.reserve(bytes * (hi - lo));
+    for (size_t i = lo; i < hi; ++i) line(out, i);
+  });
+}
+
 std::string face_label(const TexturedMesh& mesh, size_t f) {
   std::string s = "face " + std::to_string(f);
   if (mesh.faces[f].source_line > 0) s += " (source line " + std::to_string(mesh.faces[f].source_line) + ")";
@@ -593,6 +609,14 @@ std::string format_double(double d) {
 }
 
 void write_file_atomic(const std::string& path, const std::string& data) {
+  write_file_atomic(path, std::vector<std::string_view>{data});
+}
+
+void write_file_atomic(const std::string& path, const std::vector<std::string>& pieces) {
+  write_file_atomic(path, std::vector<std::string_view>(pieces.begin(), pieces.end()));
+}
+
+void write_file_atomic(const std::string& path, const std::vector<std::string_view>& pieces) {
   static std::atomic<unsigned> counter{0};
   const fs::path target(path);
   if (target.filename().empty()) throw ObjError(path + ": not a file name");
@@ -600,7 +624,9 @@ void write_file_atomic(const std::string& path, const std::string& data) {
                                                std::to_string(::getpid()) + "-" + std::to_string(counter++));
   std::FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) throw ObjError(path + ": cannot create " + tmp.string() + ": " + std::strerror(errno));
-  const bool written = std::fwrite(data.data(), 1, data.size(), f) == data.size();
+  bool written = true;
+  for (const std::string_view data : pieces)
+    if (written && !data.empty()) written = std::fwrite(data.data(), 1, data.size(), f) == data.size();
   const int write_errno = errno;
   const bool closed = std::fclose(f) == 0;
   std::error_code ec;
@@ -681,16 +707,17 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
     }
   }
 
-  // OBJ.
-  std::string out;
-  out.reserve(64 * (mesh.positions.size() + mesh.texcoords.size() + mesh.normals.size()) + 40 * mesh.faces.size());
-  out += "# written by texdefrag\n";
-  if (!mesh.materials.empty()) out += "mtllib " + mtl_name + "\n";
+  // OBJ: the lines of each section are formatted in blocks on the framework's threads and written
+  // in order, so the file does not depend on the thread count (and an error names the first bad
+  // element, as a sequential pass would).
+  std::vector<std::string> pieces;
+  pieces.push_back("# written by texdefrag\n");
+  if (!mesh.materials.empty()) pieces.back() += "mtllib " + mtl_name + "\n";
   auto check_finite = [&](const double* d, int n, const char* what, size_t i) {
     for (int k = 0; k < n; ++k)
       if (!std::isfinite(d[k])) throw ObjError(obj_path + ": " + what + " " + std::to_string(i) + " is not finite");
   };
-  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+  format_blocks(pieces, mesh.positions.size(), 48, [&](std::string& out, size_t i) {
     const Vec3& p = mesh.positions[i];
     check_finite(p.data(), 3, "position", i);
     out += "v ";
@@ -700,8 +727,8 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
     out += ' ';
     append_double(out, p.z());
     out += '\n';
-  }
-  for (size_t i = 0; i < mesh.texcoords.size(); ++i) {
+  });
+  format_blocks(pieces, mesh.texcoords.size(), 40, [&](std::string& out, size_t i) {
     const Vec2& t = mesh.texcoords[i];
     check_finite(t.data(), 2, "texture coordinate", i);
     out += "vt ";
@@ -709,8 +736,8 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
     out += ' ';
     append_double(out, t.y());
     out += '\n';
-  }
-  for (size_t i = 0; i < mesh.normals.size(); ++i) {
+  });
+  format_blocks(pieces, mesh.normals.size(), 48, [&](std::string& out, size_t i) {
     const Vec3& n = mesh.normals[i];
     check_finite(n.data(), 3, "normal", i);
     out += "vn ";
@@ -720,10 +747,13 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
     out += ' ';
     append_double(out, n.z());
     out += '\n';
-  }
-  int material = kNoIndex, group = kNoIndex;
-  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+  });
+  // note: a face prints `g`/`usemtl` when its group or material differs from the previous face's,
+  // so a block starts from the face before it, exactly as the sequential pass would.
+  format_blocks(pieces, mesh.faces.size(), 40, [&](std::string& out, size_t f) {
     const Face& fc = mesh.faces[f];
+    const int group = f == 0 ? kNoIndex : mesh.faces[f - 1].group;
+    const int material = f == 0 ? kNoIndex : mesh.faces[f - 1].material;
     if (fc.group != group) {
       if (fc.group == kNoIndex) {
         out += "g\n";
@@ -733,7 +763,6 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
         out += mesh.groups[static_cast<size_t>(fc.group)];
         out += '\n';
       }
-      group = fc.group;
     }
     if (fc.material != material) {
       if (fc.material == kNoIndex)
@@ -741,7 +770,6 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
       if (fc.material < 0 || static_cast<size_t>(fc.material) >= mesh.materials.size())
         throw ObjError(obj_path + ": " + face_label(mesh, f) + " has material " + std::to_string(fc.material) + " out of range");
       out += "usemtl " + mesh.materials[static_cast<size_t>(fc.material)].name + "\n";
-      material = fc.material;
     }
     const bool has_vt = fc.vt[0] != kNoIndex, has_vn = fc.vn[0] != kNoIndex;
     // The page must be the one the material yields on reading back.
@@ -768,10 +796,10 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
       }
     }
     out += '\n';
-  }
+  });
 
   if (!mesh.materials.empty()) write_file_atomic(mtl.string(), m_out);
-  write_file_atomic(obj_path, out);
+  write_file_atomic(obj_path, pieces);
 }
 
 }  // namespace texdefrag

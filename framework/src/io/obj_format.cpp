@@ -2,6 +2,7 @@
 #include "texdefrag/io/obj_format.h"
 
 #include "texdefrag/io/obj.h"
+#include "texdefrag/util/parallel.h"
 
 #include <filesystem>
 
@@ -31,14 +32,17 @@ WriteResult ObjFormat::write(const LoadedModel& in, const TexturedMesh& out_mesh
   WriteResult r;
   r.main_file = files.final_path(output_name(stem));
   r.files.push_back(r.main_file);
-  std::vector<std::string> image_files;
+  std::vector<std::string> image_files, image_paths;
   for (size_t p = 0; p < pages.size(); ++p) {
     const std::string name = fs::path(out_mesh.pages[p].image_path).filename().string();
-    const std::string path = files.path_for(name);
-    write_image(path, pages[p], page_options.format, page_options.jpeg_quality);
-    r.page_bytes += static_cast<size_t>(fs::file_size(path));
+    image_paths.push_back(files.path_for(name));
     image_files.push_back(files.final_path(name));
   }
+  // Pages are encoded on the framework's threads (each page's file depends on its pixels only).
+  parallel_for(pages.size(), [&](size_t p) {
+    write_image(image_paths[p], pages[p], page_options.format, page_options.jpeg_quality);
+  });
+  for (const std::string& path : image_paths) r.page_bytes += static_cast<size_t>(fs::file_size(path));
   ObjWriteOptions wo;
   wo.protected_paths = in.input_files;
   wo.mtl_name = stem + ".mtl";

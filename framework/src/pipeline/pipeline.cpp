@@ -8,6 +8,7 @@
 #include "texdefrag/io/output_set.h"
 #include "texdefrag/texture/resample.h"
 #include "texdefrag/util/memory.h"
+#include "texdefrag/util/parallel.h"
 
 #include <algorithm>
 #include <chrono>
@@ -33,8 +34,10 @@ void timed(json& report, const std::string& name, F&& fn) {
   json& node = report["stages"][name];
   if (node.is_null()) node = json::object();
   const auto t0 = Clock::now();
+  const double c0 = process_cpu_seconds();
   fn(node);
   node["time_s"] = seconds_since(t0);
+  node["cpu_s"] = process_cpu_seconds() - c0;
   node["peak_rss_bytes"] = peak_rss_bytes();
 }
 
@@ -141,7 +144,7 @@ size_t chart_overlap_pairs(const TexturedMesh& mesh, const Atlas& atlas) {
 
 /// Report keys the framework writes into every stage's node; a stage that writes one is an error
 /// (one name per figure, and the framework's figures cannot be forged).
-const char* const kReservedKeys[] = {"section", "time_s", "peak_rss_bytes", "regions", "charts_in",
+const char* const kReservedKeys[] = {"section", "time_s", "cpu_s", "peak_rss_bytes", "regions", "charts_in",
                                      "charts_out", "distortion_arap", "flipped_faces", "pages_out",
                                      "uv_overlap_pairs"};
 
@@ -306,12 +309,14 @@ TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, con
 
 json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   const auto t_start = Clock::now();
+  const double cpu_start = process_cpu_seconds();
   json report;
   report["texdefrag_version"] = "0.1.0";
   report["input"] = options.input;
   report["config_origin"] = config.origin;
   report["config"] = config.effective;
   report["stages"] = json::object();
+  report["threads"] = thread_count();
   ProgressFn progress = rate_limited(options.progress);
 
   std::string stem = config.output.get_string("name");
@@ -436,6 +441,12 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     if (sc->section == options.stop_after) return report;
   }
 
+  // note: the topology and the input charts serve the stages only; released here, so they do not
+  // add to the resampling's peak (input and output pages are held at once there).
+  ctx.topology = nullptr;
+  ctx.input_charts = nullptr;
+  topo = Topology();
+  charts = ChartSet();
   std::vector<Image> out_pages;
   timed(report, "texture.resample", [&](json& node) {
     std::vector<Image> in_pages(mesh.pages.size());
@@ -490,6 +501,7 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     });
   }
   report["total_time_s"] = seconds_since(t_start);
+  report["total_cpu_s"] = process_cpu_seconds() - cpu_start;
   // note: the kernel's peak counter is reset before each stage, so the run's peak is the largest
   // stage peak.
   size_t peak = peak_rss_bytes();

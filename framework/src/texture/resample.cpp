@@ -12,6 +12,8 @@
 // gy = H - v - 0.5.
 #include "texdefrag/texture/resample.h"
 
+#include "texdefrag/util/parallel.h"
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -733,15 +735,30 @@ size_t fit_window(const std::vector<FaceJob>& jobs, const std::vector<const Imag
   return U;
 }
 
-/// The least-squares fit of every fitted texel of the page, window by window (kFitWindow).
+/// The least-squares fit of every fitted texel of the page, window by window (kFitWindow), on up to
+/// `threads` threads with the result of the raster order. A window writes only its own texels and
+/// reads them and a ring one texel wide around it, so window (i, j) (row i, column j) must see
+/// (i-1, j+1), (i-1, j), (i-1, j-1) and (i, j-1) fitted and (i, j+1), (i+1, *) not yet fitted.
+/// Wavefronts t = 2 i + j satisfy that: (i-1, j+1) is on t-1, (i+1, j-1) on t+1, and windows of one
+/// wavefront are two columns apart, so their rings never meet. The texels are those of the raster
+/// order, byte for byte, for any thread count.
 template <int C>
 size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<const Image*>& inputs, int iterations,
-                         Canvas& cv) {
+                         Canvas& cv, int threads) {
+  const int nx = (cv.w + kFitWindow - 1) / kFitWindow, ny = (cv.h + kFitWindow - 1) / kFitWindow;
   size_t fitted = 0;
-  for (int y0 = 0; y0 < cv.h; y0 += kFitWindow)
-    for (int x0 = 0; x0 < cv.w; x0 += kFitWindow)
-      fitted += fit_window<C>(jobs, inputs, iterations, cv, x0, y0, std::min(x0 + kFitWindow, cv.w),
-                              std::min(y0 + kFitWindow, cv.h));
+  for (int t = 0; t <= 2 * (ny - 1) + (nx - 1); ++t) {
+    std::vector<std::pair<int, int>> wave;  // (row, column)
+    for (int i = 0; i < ny; ++i)
+      if (t - 2 * i >= 0 && t - 2 * i < nx) wave.emplace_back(i, t - 2 * i);
+    std::vector<size_t> counts(wave.size(), 0);
+    parallel_for(wave.size(), threads, [&](size_t k) {
+      const int x0 = wave[k].second * kFitWindow, y0 = wave[k].first * kFitWindow;
+      counts[k] = fit_window<C>(jobs, inputs, iterations, cv, x0, y0, std::min(x0 + kFitWindow, cv.w),
+                                std::min(y0 + kFitWindow, cv.h));
+    });
+    for (size_t c : counts) fitted += c;
+  }
   return fitted;
 }
 
@@ -980,7 +997,7 @@ void render_page_jobs(const std::vector<FaceJob>& jobs, const std::vector<const 
 }
 
 void render_page(const PageTask& task, const std::vector<const Image*>& inputs, const ResampleOptions& opt,
-                 Image& out, ResampleStats& st, Progress& prog) {
+                 Image& out, ResampleStats& st, Progress& prog, int threads) {
   const int C = out.channels;
   Canvas cv;
   cv.img = &out;
@@ -999,10 +1016,10 @@ void render_page(const PageTask& task, const std::vector<const Image*>& inputs, 
   if (prog.cancelled) return;
   if (opt.fit == TexelFit::LeastSquares) {
     switch (C) {
-      case 1: st.texels_fitted = fit_least_squares<1>(task.jobs, inputs, opt.fit_iterations, cv); break;
-      case 2: st.texels_fitted = fit_least_squares<2>(task.jobs, inputs, opt.fit_iterations, cv); break;
-      case 3: st.texels_fitted = fit_least_squares<3>(task.jobs, inputs, opt.fit_iterations, cv); break;
-      default: st.texels_fitted = fit_least_squares<4>(task.jobs, inputs, opt.fit_iterations, cv); break;
+      case 1: st.texels_fitted = fit_least_squares<1>(task.jobs, inputs, opt.fit_iterations, cv, threads); break;
+      case 2: st.texels_fitted = fit_least_squares<2>(task.jobs, inputs, opt.fit_iterations, cv, threads); break;
+      case 3: st.texels_fitted = fit_least_squares<3>(task.jobs, inputs, opt.fit_iterations, cv, threads); break;
+      default: st.texels_fitted = fit_least_squares<4>(task.jobs, inputs, opt.fit_iterations, cv, threads); break;
     }
   }
   st.faces_copied = ps.faces_copied;
@@ -1168,6 +1185,19 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
   if (prog.cancelled) throw Cancelled();
 
   std::vector<ResampleStats> page_stats(out.size());
+  // note: the biggest pages first (by texels, then faces), so the last page to finish is a small
+  // one; each page is rendered by one thread and depends on nothing else, so the order does not
+  // change any texel.
+  std::vector<size_t> order(out.size());
+  for (size_t p = 0; p < order.size(); ++p) order[p] = p;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    const size_t ta = out[a].pixels.size() + 64 * tasks[a].jobs.size(), tb = out[b].pixels.size() + 64 * tasks[b].jobs.size();
+    return ta > tb;
+  });
+  const size_t nthreads = std::min<size_t>(static_cast<size_t>(thread_count()), out.size());
+  // note: threads left over when there are fewer pages than threads work inside a page (the
+  // least-squares fit's windows); the texels do not depend on either count.
+  const int inner_threads = std::max(1, thread_count() / static_cast<int>(std::max<size_t>(nthreads, 1)));
   std::atomic<size_t> next{0};
   std::mutex mtx;
   std::condition_variable cv;
@@ -1176,9 +1206,10 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
   auto worker = [&]() {
     try {
       for (;;) {
-        const size_t p = next.fetch_add(1);
-        if (p >= out.size() || prog.cancelled) break;
-        render_page(tasks[p], inputs, options, out[p], page_stats[p], prog);
+        const size_t k = next.fetch_add(1);
+        if (k >= out.size() || prog.cancelled) break;
+        const size_t p = order[k];
+        render_page(tasks[p], inputs, options, out[p], page_stats[p], prog, inner_threads);
       }
     } catch (...) {
       std::lock_guard<std::mutex> lock(mtx);
@@ -1186,8 +1217,6 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
       prog.cancelled = true;
     }
   };
-  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-  const size_t nthreads = std::min<size_t>(hw, out.size());
   std::vector<std::thread> threads;
   for (size_t t = 1; t < nthreads; ++t) {
     {

@@ -1,5 +1,7 @@
 #include "texdefrag/util/memory.h"
 
+#include <sys/resource.h>
+
 #include <fstream>
 #include <string>
 
@@ -17,6 +19,13 @@ size_t status_field(const char* name) {
 
 size_t peak_rss_bytes() { return status_field("VmHWM"); }
 size_t current_rss_bytes() { return status_field("VmRSS"); }
+double process_cpu_seconds() {
+  rusage u{};
+  if (getrusage(RUSAGE_SELF, &u) != 0) return 0;
+  const auto sec = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+  return sec(u.ru_utime) + sec(u.ru_stime);
+}
+
 bool reset_peak_rss() {
   std::ofstream out("/proc/self/clear_refs");
   if (!out) return false;

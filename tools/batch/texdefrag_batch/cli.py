@@ -39,6 +39,8 @@ def parse_args(argv):
     ap.add_argument("-c", "--config", required=True, help="pipeline configuration (JSON)")
     ap.add_argument("--set", action="append", default=[], metavar="K=V", help="option override (as texdefrag run)")
     ap.add_argument("-j", "--jobs", type=int, default=1, help="local parallel processes (default 1)")
+    ap.add_argument("--threads", type=int, metavar="N",
+                    help="threads inside each run (texdefrag run --threads; 0 = every core; default: every core)")
     ap.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT: run the tasks on its workers")
     ap.add_argument("--connect-timeout", type=float, default=20, metavar="S",
                     help="seconds to reach the scheduler and see a first worker (default 20)")
@@ -55,6 +57,8 @@ def parse_args(argv):
     a = ap.parse_args(argv)
     if a.jobs < 1:
         ap.error(f"-j must be at least 1 (got {a.jobs})")
+    if a.threads is not None and a.threads < 0:
+        ap.error(f"--threads must be >= 0 (got {a.threads})")
     if a.retries < 0:
         ap.error(f"--retries must be >= 0 (got {a.retries})")
     if a.timeout is not None and a.timeout <= 0:
@@ -137,7 +141,7 @@ class Batch:
     # -- run ---------------------------------------------------------------------------------
     def spec(self, t):
         name = f"{self.batch_id}-{safe(t['id'])}-{uuid.uuid4().hex[:8]}"
-        return {"texdefrag": self.exe, "input": t["input"], "config": self.config, "sets": list(self.a.set),
+        return {"texdefrag": self.exe, "input": t["input"], "config": self.config, "sets": list(self.a.set), "threads": self.a.threads,
                 "staging": os.path.join(self.staging_root, name), "timeout_s": self.a.timeout}
 
     def make_executor(self):

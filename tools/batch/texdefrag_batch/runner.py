@@ -95,6 +95,8 @@ def run_attempt(spec):
     argv = [spec["texdefrag"], "run", spec["input"], "--config", spec["config"], "-o", out_dir, "--quiet", "--report"]
     for s in spec.get("sets") or []:
         argv += ["--set", s]
+    if spec.get("threads") is not None:
+        argv += ["--threads", str(spec["threads"])]
     stdout_path, stderr_path = os.path.join(staging, "run.stdout"), os.path.join(staging, "run.stderr")
     with open(stdout_path, "wb") as so, open(stderr_path, "wb") as se:
         import subprocess  # noqa: PLC0415 (kept local: the module is shipped by value)

@@ -24,6 +24,8 @@
 
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <vector>
 
 namespace texdefrag {
 
@@ -76,5 +78,8 @@ std::string format_double(double d);
 /// Throws ObjError starting with `path` when the folder is missing or the write or rename fails;
 /// the temporary file is removed on failure.
 void write_file_atomic(const std::string& path, const std::string& data);
+/// Same, the file being the concatenation of `pieces` (no copy into one string).
+void write_file_atomic(const std::string& path, const std::vector<std::string>& pieces);
+void write_file_atomic(const std::string& path, const std::vector<std::string_view>& pieces);
 
 }  // namespace texdefrag

@@ -1,4 +1,4 @@
-// Process memory figures for the run report.
+// Process memory and CPU-time figures for the run report.
 #pragma once
 
 #include <cstddef>
@@ -11,4 +11,6 @@ size_t current_rss_bytes();
 /// Resets the peak counter where the kernel allows (writes 5 to /proc/self/clear_refs); returns
 /// false when it cannot, in which case peak figures are process-wide.
 bool reset_peak_rss();
+/// CPU time of this process so far (user + system, every thread), seconds.
+double process_cpu_seconds();
 }  // namespace texdefrag

@@ -128,6 +128,7 @@ struct BenchOptions {
   std::vector<std::string> externals;   ///< NAME=DIR
   std::string out_dir;                  ///< results folder (created)
   int jobs = 1;                         ///< pairs run at once, >= 1
+  int threads = -1;                     ///< each run's --threads (0 = every core); -1 = not passed
   size_t samples = 200000;              ///< texture fidelity samples per comparison
   bool texture = true;                  ///< compute texture fidelity
   bool retry_failed = false;            ///< re-run pairs whose existing record failed
