@@ -288,6 +288,8 @@ int main(int argc, char** argv) {
       for (const auto& ps : pc.layout.pages) mp += static_cast<double>(ps.width) * ps.height / 1e6;
       std::printf("%s\t%s\t%d\t%.3f\t%.3f\t%.2f\t%.0f\t%.0f", model.c_str(), spec.c_str(), ctx.atlas.num_charts,
                   rep.value("packing_efficiency", 0.0), mp, in_mp, ms, cpu_ms);
+      if (std::getenv("PACK_LAB_CHARTS"))
+        std::printf("\texact %d free-rotated %d", rep.value("charts_exact", 0), rep.value("charts_rotated_free", 0));
       // square_tetris: UV area / outline texels / dilated outline texels (where the page goes)
       if (rep.contains("outline_texels"))
         std::printf("\tuv/outline %.3f\toutline/padded %.3f\tpadded/page %.3f",

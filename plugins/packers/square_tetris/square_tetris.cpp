@@ -164,6 +164,13 @@ class PageState {
   /// Padded boxes placed on this page.
   const std::vector<Rect>& placed() const { return placed_; }
 
+  /// The horizon as one height per column (cells).
+  std::vector<int> heights() const {
+    std::vector<int> h(static_cast<size_t>(width_), 0);
+    for (const Seg& g : sky_) std::fill(h.begin() + g.x, h.begin() + g.x + g.w, g.y);
+    return h;
+  }
+
  private:
   void add_holes(const std::vector<Rect>& pieces, int min_side) {
     for (const Rect& p : pieces) {
@@ -459,15 +466,19 @@ class RasterPage {
 };
 
 /// tail: charts from order[tail] on are small; they are placed by their dilated outline at the lowest
-/// free position of the page (RasterPage), with `profiles` (outline run masks per turn) per chart id.
+/// free position of the page (RasterPage), with `profiles` (outline run masks per turn) per chart id,
+/// or, when `drops` is not empty (a tail too large for that search), dropped on the horizon above
+/// the rectangles as packers.tetris drops charts, with `drops` (column profiles per turn) per chart id.
 PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, const std::vector<int>& order,
                               size_t tail, const std::vector<std::vector<RunMask>>& profiles,
-                              int width, packing::TrialBound& bound, const StageContext& ctx) {
+                              const std::vector<std::vector<packing::Profile>>& drops, int width,
+                              packing::TrialBound& bound, const StageContext& ctx) {
   PackResult r;
   bound.start();
   r.placements.assign(in.charts.size(), Placement{});
   std::vector<PageState> pages;
   std::vector<RasterPage> rasters;  // the pages' occupancy once the tail starts
+  std::vector<packing::Horizon> horizons;  // the pages' horizons once a dropped tail starts
   std::vector<std::vector<std::tuple<int, int, Rect>>> boxes;  // per page: chart, turn, padded box
   // Smallest short side among the charts still to come: holes narrower than that are dropped.
   std::vector<int> suffix_min(order.size() + 1, INT_MAX);
@@ -502,6 +513,23 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
       if (best >= 0) {
         at = pg.place_in_hole(best_hole, packing::padded_w(c, best_q, s), packing::padded_h(c, best_q, s), min_side);
         ++r.hole_fills;
+      } else if (n >= tail && !drops.empty()) {
+        // 3'. small charts of a large tail: dropped on the horizon (packers.tetris's drop).
+        while (horizons.size() < pages.size()) horizons.emplace_back(pages[horizons.size()].heights());
+        const auto& profs = drops[static_cast<size_t>(c.id)];
+        packing::Drop d;
+        for (size_t q = 0; q < profs.size(); ++q) {
+          if (profs[q].duplicate) continue;
+          const packing::Drop e = packing::best_drop(horizons[p], s.max_page_size, profs[q]);
+          if (e.found && (!d.found || e.cost < d.cost || (e.cost == d.cost && e.top < d.top))) {
+            d = e;
+            best_q = static_cast<int>(q);
+          }
+        }
+        if (!d.found) return false;
+        horizons[p].place(profs[static_cast<size_t>(best_q)], d);
+        ++r.outline_drops;
+        at = Rect{d.x, d.y, 0, 0};
       } else if (n >= tail) {
         // 3. small charts: lowest position of the outline anywhere on the page (holes included).
         if (boxes.size() < pages.size()) boxes.resize(pages.size());
@@ -616,7 +644,8 @@ class SquareTetris : public Packer {
     // merged by best.json (b0005, more than 1500 tail charts) packs at 0.529 instead of 0.341 in
     // 2.6 s CPU; unmerged tiles (5.9k+ fragments) still skip it.
     i.options.push_back(opt_int("tail_max_charts", 4000,
-                                "Most charts the outline tail may hold; with more, every chart is packed as a rectangle "
+                                "Most charts the outline tail's bottom-left search may hold; with more, the tail is "
+                                "dropped on the horizon above the rectangles instead, as packers.tetris drops charts "
                                 "(reported as outline_tail_skipped; 0: no limit)")
                             .range(0, 100000000));
     i.create = [] { return std::make_unique<SquareTetris>(); };
@@ -647,19 +676,32 @@ class SquareTetris : public Packer {
     const long long tail_max = options().get_int("tail_max_charts");
     const size_t tail_charts = order.size() - tail;
     const bool tail_skipped = tail_max > 0 && tail_charts > static_cast<size_t>(tail_max);
-    if (tail_skipped) order = packing::order_by_area(in, s);
-    const size_t rects = tail_skipped ? order.size() : tail;
+    const size_t rects = tail;
     std::vector<std::vector<RunMask>> profiles(in.charts.size());
+    std::vector<std::vector<packing::Profile>> drops(tail_skipped ? in.charts.size() : 0);
+    double need = 0;  // texels^2 the charts need as placed: padded boxes or dilated outlines
+    for (size_t n = 0; n < order.size(); ++n) {
+      const PackChart& c = in.charts[static_cast<size_t>(order[n])];
+      if (n < rects) {
+        need += static_cast<double>(packing::padded_w(c, 0, s)) * packing::padded_h(c, 0, s);
+      } else if (tail_skipped) {
+        drops[static_cast<size_t>(order[n])] = packing::make_profiles(c, s);
+        const packing::Profile& pr = drops[static_cast<size_t>(order[n])][0];
+        for (int x = 0; x < pr.w; ++x)
+          if (pr.top[static_cast<size_t>(x)] > 0) need += pr.top[static_cast<size_t>(x)] - pr.bottom[static_cast<size_t>(x)];
+      }
+    }
     std::map<std::vector<int>, int> shapes;  // tail masks' cells -> shape id
     // Outline masks: the tail's, and the outlines that charts placed as rectangles occupy on the
-    // tail's raster; none without a tail (rectangles only).
-    for (size_t n = 0; n < order.size() && rects < order.size(); ++n) {
+    // tail's raster; none without a tail (rectangles only) or with a dropped tail.
+    for (size_t n = 0; n < order.size() && rects < order.size() && !tail_skipped; ++n) {
       const PackChart& c = in.charts[static_cast<size_t>(order[n])];
       const std::vector<packing::Profile> pr = packing::make_profiles(c, s);
       auto& out = profiles[static_cast<size_t>(order[n])];
       for (size_t q = 0; q < pr.size(); ++q) {
         out.push_back(pr[q].duplicate ? RunMask{} : make_run_mask(c, static_cast<int>(q), s));
         out.back().duplicate = pr[q].duplicate;
+        if (q == 0 && n >= rects) need += static_cast<double>(out.back().cells);
         if (pr[q].duplicate || n < rects) continue;
         std::vector<int> key{out.back().w, out.back().h};
         for (const auto& row : out.back().rows) {
@@ -671,9 +713,11 @@ class SquareTetris : public Packer {
     }
     // note: once a width gives one page, later widths stop as soon as they cannot beat its area
     // (same result as packing them fully; t016_L19: ~2x faster).
+    // note: page widths from the area the charts need as placed (padded boxes of the rectangles,
+    // dilated outlines of the tail) as well as from their boxes.
     const PackResult r = packing::pack_best_width(
-        in, s, [&](int width, packing::TrialBound& bound) {
-          return pack_square_tetris(in, s, order, rects, profiles, width, bound, ctx);
+        in, s, need, [&](int width, packing::TrialBound& bound) {
+          return pack_square_tetris(in, s, order, rects, profiles, drops, width, bound, ctx);
         });
     ctx.step(name, 1.0);
     packing::write_layout(ctx, in, r);

@@ -133,17 +133,26 @@ TEST(PackersSquareTetris, OutlineTailNestsSmallCharts) {
 }
 
 TEST(PackersSquareTetris, OutlineTailIsSkippedBeyondTailMaxCharts) {
-  // The same two triangles with tail_max_charts 1: the tail would hold 2 charts, so both are packed
-  // as rectangles and the report says why; with the limit at 2 the tail runs.
+  // The same two triangles with tail_max_charts 1: the tail would hold 2 charts, so the bottom-left
+  // search is skipped and both are dropped on the horizon by their outline profiles (the second
+  // turned to nest against the first: less page than as rectangles); with the limit at 2 the
+  // search runs.
   const std::vector<std::vector<Vec2>> polys = {{{0, 0}, {100, 0}, {0, 100}}, {{200, 0}, {300, 0}, {200, 100}}};
   auto skipped = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}, {"tail_side", 200}, {"tail_max_charts", 1}});
   expect_valid_layout(*skipped, 4);
-  EXPECT_EQ(skipped->report.at("outline_drops").get<int>(), 0);
+  EXPECT_EQ(skipped->report.at("outline_drops").get<int>(), 2);
   EXPECT_EQ(skipped->report.at("tail_charts").get<int>(), 2);
   EXPECT_TRUE(skipped->report.at("outline_tail_skipped").get<bool>());
   auto kept = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}, {"tail_side", 200}, {"tail_max_charts", 2}});
   EXPECT_EQ(kept->report.at("outline_drops").get<int>(), 2);
   EXPECT_FALSE(kept->report.at("outline_tail_skipped").get<bool>());
+  auto rects = run_packer(kName, polygon_mesh(polys, 1024), {{"width_trials", 1}, {"tail_side", 0}});
+  auto area = [](const PackRun& r) {
+    double a = 0;
+    for (const auto& p : r.ctx.layout.pages) a += static_cast<double>(p.width) * p.height;
+    return a;
+  };
+  EXPECT_LT(area(*skipped), area(*rects));
 }
 
 TEST(PackersSquareTetris, BigIrregularChartsPackedByOutline) {

@@ -242,13 +242,23 @@ std::vector<int> order_by_area(const PackInput& in, const CommonSettings& s) {
   return order;
 }
 
+double padded_box_area(const PackInput& in, const CommonSettings& s) {
+  double padded = 0;
+  for (const PackChart& c : in.charts)
+    if (!c.faces.empty()) padded += static_cast<double>(padded_w(c, 0, s)) * padded_h(c, 0, s);
+  return padded;
+}
+
 PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
                            const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width) {
-  double padded = 0;
+  return pack_best_width(in, s, padded_box_area(in, s), pack_with_width);
+}
+
+PackResult pack_best_width(const PackInput& in, const CommonSettings& s, double padded,
+                           const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width) {
   int min_width = 1;
   for (const PackChart& c : in.charts) {
     if (c.faces.empty()) continue;
-    padded += static_cast<double>(padded_w(c, 0, s)) * padded_h(c, 0, s);
     int mw = s.max_page_size;
     for (int q = 0; q < (s.allow_rotation ? 2 : 1); ++q)
       if (padded_h(c, q, s) <= s.max_page_size && padded_w(c, q, s) <= s.max_page_size)
@@ -265,6 +275,13 @@ PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
       const int w = initial_page_width(padded, min_width, eff, s);
       if (std::find(widths.begin(), widths.end(), w) == widths.end()) widths.push_back(w);
     }
+    const double boxes = padded_box_area(in, s);
+    if (boxes != padded)
+      for (int k = 0; k < s.width_trials; ++k) {
+        const double eff = 1.0 - 0.4 * k / std::max(1, s.width_trials - 1);
+        const int w = initial_page_width(boxes, min_width, eff, s);
+        if (std::find(widths.begin(), widths.end(), w) == widths.end()) widths.push_back(w);
+      }
   }
   PackResult best;
   bool have = false;

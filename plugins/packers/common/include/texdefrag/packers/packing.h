@@ -149,6 +149,17 @@ class TrialBound {
 PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
                            const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width);
 
+/// The same with the area the packer expects its charts to need, instead of the charts' padded
+/// cell boxes: a packer that places outlines in each other's box corners needs less than its boxes
+/// (square_tetris's outline tail: 2.64 MP of page for 3.7 MP of boxes on t078_L17), and widths
+/// from the box area alone are all too wide there.
+/// padded_area: texels^2, > 0 (e.g. boxes of rectangles + dilated outline cells of the rest).
+PackResult pack_best_width(const PackInput& in, const CommonSettings& s, double padded_area,
+                           const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width);
+
+/// Sum of the charts' cell boxes grown by the gutter, orientation 0 (texels^2).
+double padded_box_area(const PackInput& in, const CommonSettings& s);
+
 /// Places one chart on the first page that takes it, pages in order, opening a page when none
 /// does (the page loop of packers.tetris and packers.square_tetris).
 /// pages: the open pages (any container with size() and push_back). make_page(): a new empty page.
