@@ -676,7 +676,15 @@ class SquareTetris : public Packer {
     const long long tail_max = options().get_int("tail_max_charts");
     const size_t tail_charts = order.size() - tail;
     const bool tail_skipped = tail_max > 0 && tail_charts > static_cast<size_t>(tail_max);
-    const size_t rects = tail;
+    size_t rects = tail;
+    // A dropped tail keeps its charts that fill their box (as rect_min_fill says) as rectangles:
+    // they fill the enclosed spaces; the drop never reuses space under the horizon.
+    if (tail_skipped && rect_min_fill > 0)
+      rects = static_cast<size_t>(std::stable_partition(order.begin() + static_cast<long>(tail), order.end(), [&](int id) {
+                const packing::Mask m = in.charts[static_cast<size_t>(id)].raster(0);
+                return static_cast<double>(std::count(m.cells.begin(), m.cells.end(), 1)) >=
+                       rect_min_fill * static_cast<double>(m.cells.size());
+              }) - order.begin());
     std::vector<std::vector<RunMask>> profiles(in.charts.size());
     std::vector<std::vector<packing::Profile>> drops(tail_skipped ? in.charts.size() : 0);
     double need = 0;  // texels^2 the charts need as placed: padded boxes or dilated outlines
