@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Why the merging stopped where it did, per configuration (docs/paper.md, "Causes").
 
-  causes.py --results RESULTS [--configs paper ...] [--kind real|synthetic|all] [--out FILE.md]
+  causes.py --results RESULTS [--configs paper ...] [--kind real|synthetic|all] [--exclude TEXT ...]
+                 [--out FILE.md]
 
 Reads the run reports `RESULTS/runs/<label>/<model>/*.report.json` that `texdefrag bench` keeps
 and the records of RESULTS/results.jsonl (status ok), and writes per configuration the medians over
@@ -21,7 +22,7 @@ import statistics
 import sys
 
 
-def load_records(results, kind):
+def load_records(results, kind, exclude=()):
     recs = {}
     with open(os.path.join(results, "results.jsonl")) as f:
         for line in f:
@@ -30,7 +31,8 @@ def load_records(results, kind):
                 continue
             r = json.loads(line)
             recs[(r["config"], r["model"])] = r  # the last record of a pair wins, as in bench
-    out = [r for r in recs.values() if r.get("status") == "ok" and r.get("kind") == "pipeline"]
+    out = [r for r in recs.values() if r.get("status") == "ok" and r.get("kind") == "pipeline"
+           and not any(x in r["model"] for x in exclude)]
     if kind != "all":
         out = [r for r in out if (r.get("meta") or {}).get("kind") == kind]
     return out
@@ -65,10 +67,11 @@ def main(argv=None):
     ap.add_argument("--results", required=True)
     ap.add_argument("--configs", nargs="*", help="labels (default: every pipeline configuration)")
     ap.add_argument("--kind", default="all", choices=["all", "real", "synthetic"])
+    ap.add_argument("--exclude", nargs="*", default=[], help="leave out models whose name contains one of these")
     ap.add_argument("--out")
     a = ap.parse_args(argv)
     try:
-        recs = load_records(a.results, a.kind)
+        recs = load_records(a.results, a.kind, a.exclude)
     except (OSError, ValueError) as e:
         print("causes: %s: %s" % (a.results, e), file=sys.stderr)
         return 1

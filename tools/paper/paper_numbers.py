@@ -2,11 +2,12 @@
 """The statistics Liu et al. 2024 quote for Figures 16-20, from a `texdefrag bench` results folder.
 
   paper_numbers.py --results RESULTS [--configs paper mmethod_orig ...] [--kind real|synthetic|all]
-                   [--out FILE.md]
+                   [--exclude TEXT ...] [--out FILE.md]
 
 Reads RESULTS/results.csv (docs/bench.md), keeps the successful records of the models every
 listed configuration succeeded on (so each column is over the same buildings), optionally only
-models whose manifest `kind` (column meta.kind, tools/paper/make_buildings.py) matches, and writes
+models whose manifest `kind` (column meta.kind, tools/paper/make_buildings.py) matches and whose
+name holds none of the --exclude texts (e.g. `t078_`: the rural tile's pieces), and writes
 one markdown table, a row per statement of the paper, a column per configuration:
   Fig. 16 charts:  median chart reduction; share of models >= 90%; share in [90%, 95%); share in
                    [80%, 95%); the 5%-wide bin holding most models (the paper's "peak interval")
@@ -35,9 +36,9 @@ def num(text):
     return v if math.isfinite(v) else None
 
 
-def load(path, kind):
+def load(path, kind, exclude=()):
     with open(path, newline="") as f:
-        rows = [r for r in csv.DictReader(f) if r.get("status") == "ok"]
+        rows = [r for r in csv.DictReader(f) if r.get("status") == "ok" and not any(x in r["model"] for x in exclude)]
     if kind != "all":
         rows = [r for r in rows if r.get("meta.kind", "") == kind]
     return rows
@@ -138,11 +139,12 @@ def main(argv=None):
     ap.add_argument("--results", required=True)
     ap.add_argument("--configs", nargs="+", default=["paper", "mmethod_orig", "mmethod", "best"])
     ap.add_argument("--kind", default="all", choices=["all", "real", "synthetic"])
+    ap.add_argument("--exclude", nargs="*", default=[], help="leave out models whose name contains one of these")
     ap.add_argument("--out", help="markdown file (default: standard output)")
     a = ap.parse_args(argv)
     path = os.path.join(a.results, "results.csv")
     try:
-        rows = load(path, a.kind)
+        rows = load(path, a.kind, a.exclude)
     except OSError as e:
         print("paper_numbers: %s: %s" % (path, e), file=sys.stderr)
         return 1
@@ -153,7 +155,8 @@ def main(argv=None):
         print("paper_numbers: %s: no model where every configuration of %s succeeded (kind %s)"
               % (path, " ".join(a.configs), a.kind), file=sys.stderr)
         return 1
-    lines = ["Models: %d (kind %s) where every configuration succeeded: %s" % (len(models), a.kind, ", ".join(present)),
+    lines = ["Models: %d (kind %s%s) where every configuration succeeded: %s"
+             % (len(models), a.kind, "".join(", not *%s*" % x for x in a.exclude), ", ".join(present)),
              "" if not absent else "Configurations without a successful record (left out): %s" % ", ".join(absent), "",
              "| fig. | statistic | paper (Liu et al.) | " + " | ".join(present) + " |",
              "|---|---|---|" + "---|" * len(present)]

@@ -18,7 +18,8 @@
 #   2. SET/mmethod/<model>/: the M-method's program, tools/paper/run_mmethod.py (when installed);
 #   3. RESULTS/: texdefrag bench -j1 of the configurations (+ external mmethod_orig);
 #   4. RESULTS/figures (paper, mmethod_orig, mmethod, best) and RESULTS/figures_ablations (paper and
-#      each ablation), eval/plots/plots.py; RESULTS/paper_numbers*.md, tools/paper/paper_numbers.py.
+#      each ablation), eval/plots/plots.py; RESULTS/paper_numbers*.md, tools/paper/paper_numbers.py;
+#      RESULTS/causes_*.md, tools/paper/causes.py; RESULTS/building_set.png, tools/paper/render_set.py.
 # Heavy steps run under `nice -n 10`. SET and RESULTS must be outside the input folders.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -93,17 +94,29 @@ for l in "${labels[@]}"; do
 done
 [ ${#external[@]} -eq 0 ] || main+=(mmethod_orig)
 main+=(${rest[@]+"${rest[@]}"})
-"$py" "$root/eval/plots/plots.py" --results "$results" --configs "${main[@]}" \
+[ ${#main[@]} -eq 0 ] || "$py" "$root/eval/plots/plots.py" --results "$results" --configs "${main[@]}" \
   --figures "$results/figures" --summary "$results/summary.md" || rc=$?
 if [ ${#abl[@]} -gt 1 ]; then
   "$py" "$root/eval/plots/plots.py" --results "$results" --configs "${abl[@]}" \
     --figures "$results/figures_ablations" --summary "$results/summary_ablations.md" || rc=$?
 fi
-for kind in all real synthetic; do
-  "$py" "$here/paper_numbers.py" --results "$results" --configs "${main[@]}" --kind "$kind" \
-    --out "$results/paper_numbers_$kind.md" || echo "reproduce.sh: no paper numbers for kind $kind" >&2
-  [ ${#abl[@]} -le 1 ] || "$py" "$here/paper_numbers.py" --results "$results" --configs "${abl[@]}" --kind "$kind" \
-    --out "$results/paper_numbers_ablations_$kind.md" || echo "reproduce.sh: no ablation numbers for kind $kind" >&2
+# The paper's statistics: all models, real, synthetic, and real without the rural tile's pieces
+# (t078_*: terrain the semantic detector classes as one building, docs/paper.md).
+numbers() {  # numbers SUFFIX ARGS...: paper_numbers_SUFFIX.md, paper_numbers_ablations_SUFFIX.md
+  local sfx=$1
+  shift
+  [ ${#main[@]} -eq 0 ] || "$py" "$here/paper_numbers.py" --results "$results" --configs "${main[@]}" "$@" \
+    --out "$results/paper_numbers_$sfx.md" || echo "reproduce.sh: no paper numbers ($sfx)" >&2
+  [ ${#abl[@]} -le 1 ] || "$py" "$here/paper_numbers.py" --results "$results" --configs "${abl[@]}" "$@" \
+    --out "$results/paper_numbers_ablations_$sfx.md" || echo "reproduce.sh: no ablation numbers ($sfx)" >&2
+}
+for kind in all real synthetic; do numbers "$kind" --kind "$kind"; done
+numbers urban --kind real --exclude t078_
+for kind in real synthetic; do
+  "$py" "$here/causes.py" --results "$results" --kind "$kind" --out "$results/causes_$kind.md" ||
+    echo "reproduce.sh: no causes table ($kind)" >&2
 done
+"$py" "$here/render_set.py" "$set_dir" "$results/building_set.png" ||
+  echo "reproduce.sh: no picture of the building set" >&2
 echo "reproduce.sh: results in $results (summary.md, figures/, figures_ablations/, paper_numbers_*.md)"
 exit "$rc"
