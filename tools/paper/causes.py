@@ -15,7 +15,6 @@ its models of:
 Standard library only. Exit 0, or 1 when no record matches.
 """
 import argparse
-import glob
 import json
 import os
 import statistics
@@ -39,10 +38,16 @@ def load_records(results, kind, exclude=()):
 
 
 def report_of(results, r):
-    files = glob.glob(os.path.join(results, "runs", r["config"], r["model"], "*.report.json"))
-    if len(files) != 1:
-        return None
-    with open(files[0]) as f:
+    """The run report beside the record's output (labels of sweeps hold glob characters: '[')."""
+    out = r.get("output") or ""
+    path = os.path.splitext(out)[0] + ".report.json" if out else ""
+    if not path or not os.path.isfile(path):
+        d = os.path.join(results, "runs", r["config"], r["model"])
+        files = [os.path.join(d, f) for f in os.listdir(d) if f.endswith(".report.json")] if os.path.isdir(d) else []
+        if len(files) != 1:
+            return None
+        path = files[0]
+    with open(path) as f:
         return json.load(f)
 
 

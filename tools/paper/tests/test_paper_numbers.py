@@ -57,7 +57,12 @@ def main():
         check(lines["models whose texture grew"] == ["33.3%", "33.3%"], str(lines))
         check(lines["median V2/V3, output"] == ["1.500", "1.500"], str(lines))
         check(lines["models with V2/V3 below mmethod_orig's"] == ["66.7%", "-"], str(lines))
-        # No common model: exit 1 with a message.
+        # --exclude leaves out models by name: without "a", b and c remain.
+        check(paper_numbers.main(["--results", d, "--configs", "paper", "mmethod_orig", "--kind", "real",
+                                  "--exclude", "a", "--out", out]) == 0, "exclude exit code")
+        ex = open(out).read()
+        check("Models: 2 (kind real, not *a*)" in ex and "| 16 | median chart reduction | -90..-95% peak | 89.0% | 85.5% |" in ex, ex)
+        # An absent configuration is left out, not fatal.
         check(paper_numbers.main(["--results", d, "--configs", "paper", "nothing", "--out", out]) == 0,
               "an absent configuration is left out, not fatal")
         check("left out): nothing" in open(out).read(), open(out).read())
