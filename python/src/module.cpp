@@ -8,6 +8,7 @@
 #include "texdefrag/io/obj.h"
 #include "texdefrag/pipeline/pipeline.h"
 #include "texdefrag/stage/describe.h"
+#include "texdefrag/util/parallel.h"
 #include "texdefrag/util/paths.h"
 
 #include <pybind11/stl.h>
@@ -62,6 +63,8 @@ PYBIND11_MODULE(_texdefrag, m) {
 
   m.def("version", [] { return std::string(TEXDEFRAG_VERSION_STRING); });
   m.def("install_root", &install_root);
+  m.def("set_threads", &set_thread_count, py::arg("n"), "Threads inside runs (0 = every core), as --threads");
+  m.def("threads", &thread_count, "Threads runs use now");
   m.def("configs", &shipped_configs, "Names of the shipped configurations");
   m.def("resolve_config", &resolve_config, py::arg("name_or_path"));
   m.def("stages_json", [] { return describe_all_stages().dump(); });

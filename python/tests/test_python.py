@@ -88,6 +88,23 @@ class RunTest(unittest.TestCase):
             m = texdefrag.eval(example(), r.output)
             self.assertGreater(m["fidelity"]["psnr_db"], 30)
 
+    def test_threads_setting_reaches_the_report_and_not_the_output(self):
+        outputs = {}
+        try:
+            for n in (1, 3):
+                texdefrag.set_threads(n)
+                self.assertEqual(texdefrag.threads(), n)
+                with tempfile.TemporaryDirectory() as d:
+                    r = texdefrag.run(example(), os.path.join(d, "out"), config="repack")
+                    self.assertEqual(r.report["threads"], n)
+                    with open(r.output, "rb") as f:
+                        outputs[n] = f.read()
+            self.assertEqual(outputs[1], outputs[3])
+            with self.assertRaises(ValueError):
+                texdefrag.set_threads(-1)
+        finally:
+            texdefrag.set_threads(0)
+
     def test_no_write(self):
         r = texdefrag.run(example(), config="repack", write=False)
         self.assertEqual(r.output, "")

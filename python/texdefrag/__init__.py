@@ -28,10 +28,23 @@ ImageError = _t.ImageError
 StageError = _t.StageError
 
 __version__ = _t.version()
-__all__ = ["configs", "config", "stages", "describe", "run", "run_arrays", "eval", "RunResult",
+__all__ = ["configs", "config", "stages", "describe", "run", "run_arrays", "eval", "RunResult", "set_threads", "threads",
            "ConfigError", "ConfigNotFound", "PluginError", "ModelError", "ImageError", "StageError"]
 
 DEFAULT_CONFIG = "best"
+
+
+def set_threads(n):
+    """Threads inside every later run of this process, like `texdefrag run --threads N` (0 = every
+    core, the default). The output files do not depend on it (docs/framework.md, "Threads")."""
+    if not isinstance(n, int) or isinstance(n, bool) or n < 0:
+        raise ValueError(f"threads must be an integer >= 0 (0 = every core), got {n!r}")
+    _t.set_threads(n)
+
+
+def threads():
+    """Threads runs use now (>= 1)."""
+    return _t.threads()
 
 
 def configs():
