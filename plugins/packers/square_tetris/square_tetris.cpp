@@ -678,12 +678,16 @@ class SquareTetris : public Packer {
     const bool tail_skipped = tail_max > 0 && tail_charts > static_cast<size_t>(tail_max);
     size_t rects = tail;
     // A dropped tail keeps its charts that fill their box (as rect_min_fill says) as rectangles:
-    // they fill the enclosed spaces; the drop never reuses space under the horizon.
+    // they fill the enclosed spaces; the drop never reuses space under the horizon. note: the UV
+    // area decides first (no raster for the many rectangle charts: bench_packers 10k 0.50 -> ms
+    // CPU), the rasterised outline otherwise.
     if (tail_skipped && rect_min_fill > 0)
       rects = static_cast<size_t>(std::stable_partition(order.begin() + static_cast<long>(tail), order.end(), [&](int id) {
-                const packing::Mask m = in.charts[static_cast<size_t>(id)].raster(0);
-                return static_cast<double>(std::count(m.cells.begin(), m.cells.end(), 1)) >=
-                       rect_min_fill * static_cast<double>(m.cells.size());
+                const PackChart& c = in.charts[static_cast<size_t>(id)];
+                const double box = static_cast<double>(c.box_area());
+                if (c.uv_area >= rect_min_fill * box) return true;
+                const packing::Mask m = c.raster(0);
+                return static_cast<double>(std::count(m.cells.begin(), m.cells.end(), 1)) >= rect_min_fill * box;
               }) - order.begin());
     std::vector<std::vector<RunMask>> profiles(in.charts.size());
     std::vector<std::vector<packing::Profile>> drops(tail_skipped ? in.charts.size() : 0);
