@@ -23,6 +23,8 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
     int mip_levels = eval::EvalOptions{}.clash_max_level;
     int render_views = eval::RenderFidelityOptions{}.views;
     int render_size = eval::RenderFidelityOptions{}.size;
+    int render_steps = eval::RenderFidelityOptions{}.max_level;
+    int render_supersample = eval::RenderFidelityOptions{}.supersample;
   };
   auto args = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand("eval", "Compare an input model with a defragmented output: charts, seams, "
@@ -49,14 +51,25 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
           "NUMBER >= 0"));
   sub->add_flag("--no-appearance", args->no_appearance,
                 "skip the appearance measures (texel clashes per MIP level, seam colour, rendered views)");
-  sub->add_option("--mip-levels", args->mip_levels, "highest MIP level of texel clashes and rendered views")
+  sub->add_option("--mip-levels", args->mip_levels, "highest MIP level of the texel clashes")
       ->check(CLI::Range(0, 16));
   sub->add_option("--render-views", args->render_views, "fixed views of the rendered-view fidelity")
       ->check(CLI::Range(1, 64));
-  sub->add_option("--render-size", args->render_size, "pixels per side of each rendered view")
+  sub->add_option("--render-size", args->render_size,
+                  "pixels per side of each rendered view at the nearest distance (halved at each step)")
       ->check(CLI::Range(16, 4096));
+  sub->add_option("--render-steps", args->render_steps,
+                  "distance steps of the rendered views beyond the nearest (render size / 2^step, >= 16 px)")
+      ->check(CLI::Range(0, 8));
+  sub->add_option("--render-supersample", args->render_supersample,
+                  "samples per pixel side of the prefiltered reference at the nearest distance")
+      ->check(CLI::Range(1, 16));
   sub->callback([args, &exit_code]() {
     try {
+      if (args->render_size % (1 << args->render_steps) != 0 || (args->render_size >> args->render_steps) < 16)
+        throw std::runtime_error("--render-size " + std::to_string(args->render_size) + " with --render-steps " +
+                                 std::to_string(args->render_steps) + ": the size must be a multiple of 2^steps and "
+                                 "size / 2^steps at least 16 pixels");
       for (const std::string* p : {&args->in, &args->out}) {
         std::ifstream probe(*p);
         if (!probe) throw std::runtime_error("cannot read '" + *p + "'");
@@ -67,7 +80,8 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
       opt.texture = !args->no_texture;
       opt.appearance = !args->no_appearance;
       opt.clash_max_level = args->mip_levels;
-      opt.render.max_level = args->mip_levels;
+      opt.render.max_level = args->render_steps;
+      opt.render.supersample = args->render_supersample;
       opt.render.views = args->render_views;
       opt.render.size = args->render_size;
       const eval::Comparison c = eval::compare_files(args->in, args->out, opt);

@@ -8,7 +8,7 @@ defragmentation", Remote Sensing), Figures 16-20, from RESULTS/results.csv:
   fig18_distortion.png        ARAP distortion of the UV map (box plots)
   fig19_texture_size.png      per-model relative change of texture megapixels and bytes
   fig20_vertex_replication.png vertex replication V2/V3 before and after, per model
-  fig21_rendered_mip.png      rendered-view PSNR / SSIM against MIP level, input and each configuration
+  fig21_rendered_mip.png      rendered-view PSNR / SSIM against viewing distance, input and each configuration
   sweep_<key>.png             medians against the swept value (when a --sweep was run)
 and RESULTS/summary.md: median and mean of every derived metric per configuration, and which
 configuration wins each metric (over the models every configuration succeeded on).
@@ -359,9 +359,10 @@ def figures(rows, configs, outdir):
 
 
 def rendered_mip_figure(plt, rows, configs, path):
-    """Rendered fidelity against MIP level (median over models): PSNR and SSIM of each
-    configuration's output rendered at level L against the input rendered at level 0, and the
-    input's own curve (input at L vs input at 0). False when no record has rendered views."""
+    """Rendered fidelity against viewing distance (median over models): PSNR and SSIM of each
+    configuration's output, rendered with trilinear MIP-mapping at distance step d (render size
+    S / 2^d), against the prefiltered input (docs/eval.md, "Rendered-view fidelity"), and the
+    input's own curve. False when no record has rendered views."""
     def curve(config, prefix, what):
         pts = []
         for level in MIP_LEVELS:
@@ -381,12 +382,12 @@ def rendered_mip_figure(plt, rows, configs, path):
             pts = curve(c, "rendered_", what)
             if pts:
                 ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=c)
-        ax.set_xlabel("MIP level")
-        ax.set_ylabel(f"median {unit} vs input at level 0")
+        ax.set_xlabel("distance step d (render size S / 2^d)")
+        ax.set_ylabel(f"median {unit} vs prefiltered input")
         ax.set_xticks(list(MIP_LEVELS))
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle("Rendered fidelity against MIP level (textured renders, fixed views)")
+    fig.suptitle("Rendered fidelity against viewing distance (trilinear MIP-mapped renders, fixed views)")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -42,7 +42,7 @@ const Derived kDerived[] = {
     {"psnr_db", +1},                {"copied_fraction", +1},         {"lost_faces", -1},
     {"time_s", -1},                 {"peak_rss_mb", -1},
     // Appearance measures (docs/eval.md "Appearance"): clashes at MIP levels 2 and 4, seam colour,
-    // rendered-view PSNR / SSIM per MIP level (output vs input at level 0; input vs itself at 0).
+    // rendered-view PSNR / SSIM per distance step _l<d> (output, and input, vs the prefiltered input).
     {"clash_fraction_l2_in", 0},    {"clash_fraction_l2_out", -1},   {"clash_fraction_l4_in", 0},
     {"clash_fraction_l4_out", -1},  {"seam_colour_in", 0},           {"seam_colour_out", -1},
     {"rendered_psnr_l0", +1},       {"rendered_psnr_l1", +1},        {"rendered_psnr_l2", +1},

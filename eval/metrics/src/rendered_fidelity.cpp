@@ -1,10 +1,15 @@
 // Rendered-view fidelity: textured orthographic software renders of input and output from fixed
-// views, the texture read on a forced MIP level (as a renderer does for a distant model), compared
-// by PSNR and SSIM (docs/eval.md, "Appearance"). Screen basis and framing follow the bench's
-// chart renders (eval/bench/src/views.cpp): z up, orthographic, z-buffered.
+// views at decreasing sizes (the model seen from farther and farther away), each face's texture
+// read with trilinear MIP-mapping at the level a GPU picks, compared by PSNR and SSIM with a
+// prefiltered reference: the input at MIP level 0 rendered with supersampling and box-filtered
+// down (docs/eval.md, "Appearance"). Screen basis follows the bench's chart renders
+// (eval/bench/src/views.cpp): z up, orthographic, z-buffered.
 #include "texdefrag/eval/appearance.h"
 
+#include <Eigen/Dense>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -51,6 +56,30 @@ Camera frame_camera(const TexturedMesh& frame, const Vec3& toward_in, int size) 
   return c;
 }
 
+/// A square camera of `size` pixels whose mapping is exactly proportional to `size` (margin 2% of
+/// the size, the longer side of the frame's extent fills the rest), so that the pixel (x, y) of a
+/// render of size S covers the f x f pixels (f x, f y)... of the render of size f S.
+Camera square_camera(const TexturedMesh& frame, const Vec3& toward, int size) {
+  Camera c = frame_camera(frame, toward, size);
+  double x1 = -1e300, y1 = -1e300;
+  for (const Face& f : frame.faces)
+    for (int k = 0; k < 3; ++k) {
+      const Vec3& q = frame.positions[static_cast<size_t>(f.v[static_cast<size_t>(k)])];
+      if (q.allFinite()) x1 = std::max(x1, q.dot(c.sx)), y1 = std::max(y1, q.dot(c.sy));
+    }
+  const double extent = x1 < c.x0 ? 1.0 : std::max({x1 - c.x0, y1 - c.y0, 1e-12});
+  c.width = c.height = size;
+  c.margin = 0.02 * size;
+  c.scale = (size - 2 * c.margin) / extent;
+  return c;
+}
+
+/// Screen position (pixels, y down) and depth of a model point.
+Vec3 to_screen(const Camera& cam, const Vec3& q) {
+  return Vec3(cam.margin + (q.dot(cam.sx) - cam.x0) * cam.scale, cam.height - cam.margin - (q.dot(cam.sy) - cam.y0) * cam.scale,
+              q.dot(cam.toward));
+}
+
 GBuffer rasterise(const TexturedMesh& mesh, const Camera& cam) {
   GBuffer g;
   g.width = cam.width, g.height = cam.height;
@@ -60,11 +89,7 @@ GBuffer rasterise(const TexturedMesh& mesh, const Camera& cam) {
   std::vector<double> depth(n, -std::numeric_limits<double>::infinity());
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     std::array<Vec3, 3> t;
-    for (int k = 0; k < 3; ++k) {
-      const Vec3& q = mesh.corner_position(f, k);
-      t[static_cast<size_t>(k)] = Vec3(cam.margin + (q.dot(cam.sx) - cam.x0) * cam.scale,
-                                       cam.height - cam.margin - (q.dot(cam.sy) - cam.y0) * cam.scale, q.dot(cam.toward));
-    }
+    for (int k = 0; k < 3; ++k) t[static_cast<size_t>(k)] = to_screen(cam, mesh.corner_position(f, k));
     const double area = (t[1].x() - t[0].x()) * (t[2].y() - t[0].y()) - (t[1].y() - t[0].y()) * (t[2].x() - t[0].x());
     if (area == 0 || !std::isfinite(area)) continue;
     const int bx0 = std::max(0, static_cast<int>(std::floor(std::min({t[0].x(), t[1].x(), t[2].x()}))));
@@ -92,8 +117,11 @@ GBuffer rasterise(const TexturedMesh& mesh, const Camera& cam) {
   return g;
 }
 
+/// Each covered pixel: the nearest face's texture on MIP level `level`, read bilinearly, or with
+/// `nearest` the texel holding the point (no filter, so it never reads outside the texels the
+/// triangle covers).
 Image shade(const TexturedMesh& mesh, const std::vector<std::vector<Image>>& pyramids, const GBuffer& g, int level,
-            std::vector<uint8_t>* mask) {
+            std::vector<uint8_t>* mask, bool nearest = false) {
   Image im;
   im.width = g.width, im.height = g.height, im.channels = 3;
   im.pixels.assign(g.face.size() * 3, 0);
@@ -112,10 +140,101 @@ Image shade(const TexturedMesh& mesh, const std::vector<std::vector<Image>>& pyr
     const Image& tex = pyr[static_cast<size_t>(std::min<int>(level, static_cast<int>(pyr.size()) - 1))];
     Vec2 uv(0, 0);
     for (int k = 0; k < 3; ++k) uv += static_cast<double>(g.bary[i][static_cast<size_t>(k)]) * mesh.texcoords[static_cast<size_t>(fc.vt[static_cast<size_t>(k)])];
+    if (nearest) {
+      const int x = std::clamp(static_cast<int>(std::floor(uv.x() * tex.width)), 0, tex.width - 1);
+      const int y = std::clamp(tex.height - 1 - static_cast<int>(std::floor(uv.y() * tex.height)), 0, tex.height - 1);
+      const uint8_t* t = tex.at(x, y);
+      for (int c = 0; c < 3; ++c) px[c] = t[tex.channels >= 3 ? c : 0];
+      continue;
+    }
     double rgb[3];
     bilinear_rgb(tex, uv.x() * tex.width, uv.y() * tex.height, rgb);
     for (int c = 0; c < 3; ++c) px[c] = static_cast<uint8_t>(std::lround(std::clamp(rgb[c], 0.0, 255.0)));
   }
+  return im;
+}
+
+/// Per face, the MIP level a GPU picks for it in `cam` (OpenGL's isotropic rule; the texel map of
+/// a triangle under an orthographic camera is affine, so its derivatives are constant): lambda =
+/// log2 of the longer of |d(s,t)/dx| and |d(s,t)/dy|, (s,t) in texels of level 0 of its page,
+/// clamped to [0, levels - 1]. 0 for untextured or degenerate faces.
+std::vector<float> face_lods(const TexturedMesh& mesh, const std::vector<std::vector<Image>>& pyramids, const Camera& cam) {
+  std::vector<float> lod(mesh.faces.size(), 0.0f);
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    const Face& fc = mesh.faces[f];
+    if (fc.page == kNoPage) continue;
+    const std::vector<Image>& pyr = pyramids[static_cast<size_t>(fc.page)];
+    std::array<Vec3, 3> p;
+    std::array<Vec2, 3> t;
+    for (int k = 0; k < 3; ++k) {
+      p[static_cast<size_t>(k)] = to_screen(cam, mesh.corner_position(f, k));
+      const Vec2& uv = mesh.texcoords[static_cast<size_t>(fc.vt[static_cast<size_t>(k)])];
+      t[static_cast<size_t>(k)] = Vec2(uv.x() * pyr[0].width, uv.y() * pyr[0].height);
+    }
+    Eigen::Matrix2d P, T;
+    P << p[1].x() - p[0].x(), p[2].x() - p[0].x(), p[1].y() - p[0].y(), p[2].y() - p[0].y();
+    T << t[1].x() - t[0].x(), t[2].x() - t[0].x(), t[1].y() - t[0].y(), t[2].y() - t[0].y();
+    const double det = P.determinant();
+    if (det == 0 || !std::isfinite(det)) continue;
+    const Eigen::Matrix2d J = T * P.inverse();  // columns: d(s,t)/dx, d(s,t)/dy
+    const double rho = std::max(J.col(0).norm(), J.col(1).norm());
+    if (!(rho > 0) || !std::isfinite(rho)) continue;
+    lod[f] = static_cast<float>(std::clamp(std::log2(rho), 0.0, static_cast<double>(pyr.size() - 1)));
+  }
+  return lod;
+}
+
+/// Like shade, each face read with trilinear filtering at its level `lods[face]` (the two nearest
+/// MIP levels read bilinearly and blended).
+Image shade_trilinear(const TexturedMesh& mesh, const std::vector<std::vector<Image>>& pyramids, const GBuffer& g,
+                      const std::vector<float>& lods) {
+  Image im;
+  im.width = g.width, im.height = g.height, im.channels = 3;
+  im.pixels.assign(g.face.size() * 3, 0);
+  for (size_t i = 0; i < g.face.size(); ++i) {
+    const int f = g.face[i];
+    if (f < 0) continue;
+    const Face& fc = mesh.faces[static_cast<size_t>(f)];
+    uint8_t* px = &im.pixels[i * 3];
+    if (fc.page == kNoPage) {
+      px[0] = px[1] = px[2] = 128;
+      continue;
+    }
+    const std::vector<Image>& pyr = pyramids[static_cast<size_t>(fc.page)];
+    const double lod = lods[static_cast<size_t>(f)];
+    const size_t lo = static_cast<size_t>(std::floor(lod)), hi = std::min(lo + 1, pyr.size() - 1);
+    const double t = lod - static_cast<double>(lo);
+    Vec2 uv(0, 0);
+    for (int k = 0; k < 3; ++k) uv += static_cast<double>(g.bary[i][static_cast<size_t>(k)]) * mesh.texcoords[static_cast<size_t>(fc.vt[static_cast<size_t>(k)])];
+    double a[3], b[3] = {0, 0, 0};
+    bilinear_rgb(pyr[lo], uv.x() * pyr[lo].width, uv.y() * pyr[lo].height, a);
+    if (t > 0) bilinear_rgb(pyr[hi], uv.x() * pyr[hi].width, uv.y() * pyr[hi].height, b);
+    for (int c = 0; c < 3; ++c) px[c] = static_cast<uint8_t>(std::lround(std::clamp((1 - t) * a[c] + t * b[c], 0.0, 255.0)));
+  }
+  return im;
+}
+
+/// The reference at 1/f of `fine`'s size: each pixel the rounded mean of its f x f block; `full`
+/// set to 1 where every pixel of the block is covered (cover != 0).
+Image box_down(const Image& fine, const std::vector<uint8_t>& cover, int f, std::vector<uint8_t>& full) {
+  Image im;
+  im.width = fine.width / f, im.height = fine.height / f, im.channels = 3;
+  im.pixels.assign(static_cast<size_t>(im.width) * static_cast<size_t>(im.height) * 3, 0);
+  full.assign(static_cast<size_t>(im.width) * static_cast<size_t>(im.height), 0);
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      double sum[3] = {0, 0, 0};
+      int covered = 0;
+      for (int dy = 0; dy < f; ++dy)
+        for (int dx = 0; dx < f; ++dx) {
+          const size_t j = static_cast<size_t>(y * f + dy) * static_cast<size_t>(fine.width) + static_cast<size_t>(x * f + dx);
+          covered += cover[j] != 0;
+          for (int c = 0; c < 3; ++c) sum[c] += fine.pixels[j * 3 + static_cast<size_t>(c)];
+        }
+      const size_t i = static_cast<size_t>(y) * static_cast<size_t>(im.width) + static_cast<size_t>(x);
+      full[i] = covered == f * f;
+      for (int c = 0; c < 3; ++c) im.pixels[i * 3 + static_cast<size_t>(c)] = static_cast<uint8_t>(std::lround(sum[c] / (f * f)));
+    }
   return im;
 }
 
@@ -142,54 +261,68 @@ Image render_textured(const TexturedMesh& mesh, const std::vector<std::vector<Im
   return shade(mesh, pyramids, rasterise(mesh, frame_camera(frame, toward, size)), level, mask);
 }
 
+namespace {
+
+/// Every view stacked into one tall image per distance step (views of one step share a size; SSIM
+/// windows meet at the 2% background margins between views).
+struct Stacks {
+  std::vector<Image> in, out, ref;
+  std::vector<std::vector<uint8_t>> mask;
+};
+
+void append(Image& dst, const Image& src) {
+  dst.width = src.width, dst.channels = 3, dst.height += src.height;
+  dst.pixels.insert(dst.pixels.end(), src.pixels.begin(), src.pixels.end());
+}
+
+/// One view: the reference rendered once at size x supersample, then each distance step.
+void render_view(const TexturedMesh& in, const std::vector<std::vector<Image>>& in_pyr, const TexturedMesh& out,
+                 const std::vector<std::vector<Image>>& out_pyr, const Vec3& toward, const RenderFidelityOptions& o,
+                 Stacks& st) {
+  const int fine_size = o.size * o.supersample;
+  const GBuffer gref = rasterise(in, square_camera(in, toward, fine_size));
+  std::vector<uint8_t> cover;
+  const Image fine = shade(in, in_pyr, gref, 0, &cover, /*nearest=*/true);
+  for (int d = 0; d <= o.max_level; ++d) {
+    const int size = o.size >> d;
+    const Camera cam = square_camera(in, toward, size);
+    std::vector<uint8_t> full;
+    append(st.ref[static_cast<size_t>(d)], box_down(fine, cover, fine_size / size, full));
+    std::vector<uint8_t>& m = st.mask[static_cast<size_t>(d)];
+    m.insert(m.end(), full.begin(), full.end());
+    append(st.in[static_cast<size_t>(d)], shade_trilinear(in, in_pyr, rasterise(in, cam), face_lods(in, in_pyr, cam)));
+    append(st.out[static_cast<size_t>(d)], shade_trilinear(out, out_pyr, rasterise(out, cam), face_lods(out, out_pyr, cam)));
+  }
+}
+
+}  // namespace
+
 RenderFidelity rendered_fidelity(const TexturedMesh& in, const std::vector<Image>& in_pages, const TexturedMesh& out,
                                  const std::vector<Image>& out_pages, const RenderFidelityOptions& options) {
-  if (options.views < 1 || options.size < 16 || options.max_level < 0)
-    throw std::invalid_argument("rendered_fidelity: views >= 1, size >= 16 and max_level >= 0 required");
+  if (options.views < 1 || options.max_level < 0 || options.supersample < 1 || options.max_level > 10 ||
+      (options.size >> options.max_level) < 16 || options.size % (1 << options.max_level) != 0)
+    throw std::invalid_argument("rendered_fidelity: views >= 1, supersample >= 1, max_level in 0..10 and a size that "
+                                "is a multiple of 2^max_level with size / 2^max_level >= 16 required");
   if (in_pages.size() != in.pages.size() || out_pages.size() != out.pages.size())
     throw std::invalid_argument("rendered_fidelity: one image per page expected");
-  const auto in_pyr = pyramids_of(in_pages, options.max_level);
-  const auto out_pyr = pyramids_of(out_pages, options.max_level);
-  RenderFidelity r;
-  r.views = options.views, r.size = options.size;
+  const auto in_pyr = pyramids_of(in_pages, 64), out_pyr = pyramids_of(out_pages, 64);  // every level to 1x1
   const size_t nl = static_cast<size_t>(options.max_level) + 1;
-  // Per level: stacked renders of all views (one tall image each), compared once.
-  std::vector<Image> in_l(nl), out_l(nl);
-  Image in_ref;
-  std::vector<uint8_t> mask;
-  // Every view is size x size, so the views stack into one tall image per level (SSIM windows
-  // meet at the 2% background margins between views).
-  auto append = [](Image& dst, const Image& src) {
-    dst.width = src.width, dst.channels = 3, dst.height += src.height;
-    dst.pixels.insert(dst.pixels.end(), src.pixels.begin(), src.pixels.end());
-  };
-  for (int v = 0; v < options.views; ++v) {
-    // Square renders: the framing fits inside size x size whatever the view's aspect.
-    Camera cam = frame_camera(in, render_view_direction(v, options.views), options.size);
-    cam.width = cam.height = options.size;
-    const GBuffer gi = rasterise(in, cam), go = rasterise(out, cam);
-    for (size_t l = 0; l < nl; ++l) {
-      std::vector<uint8_t> mi, mo;
-      const Image a = shade(in, in_pyr, gi, static_cast<int>(l), &mi);
-      const Image b = shade(out, out_pyr, go, static_cast<int>(l), &mo);
-      append(in_l[l], a);
-      append(out_l[l], b);
-      if (l == 0) {
-        append(in_ref, a);
-        for (size_t i = 0; i < mi.size(); ++i) mask.push_back(static_cast<uint8_t>(mi[i] | mo[i]));
-      }
-    }
-  }
+  Stacks st{std::vector<Image>(nl), std::vector<Image>(nl), std::vector<Image>(nl), std::vector<std::vector<uint8_t>>(nl)};
+  for (int v = 0; v < options.views; ++v)
+    render_view(in, in_pyr, out, out_pyr, render_view_direction(v, options.views), options, st);
+  RenderFidelity r;
+  r.views = options.views, r.size = options.size, r.supersample = options.supersample;
   for (size_t l = 0; l < nl; ++l) {
     RenderLevel L;
     L.level = static_cast<int>(l);
-    L.pixels = static_cast<size_t>(std::count(mask.begin(), mask.end(), 1));
-    L.input_psnr_db = psnr(in_l[l], in_ref, mask);
-    L.input_ssim = ssim(in_l[l], in_ref, mask);
-    L.output_psnr_db = psnr(out_l[l], in_ref, mask);
-    L.output_ssim = ssim(out_l[l], in_ref, mask);
-    L.pair_psnr_db = psnr(out_l[l], in_l[l], mask);
-    L.pair_ssim = ssim(out_l[l], in_l[l], mask);
+    L.size = options.size >> l;
+    L.pixels = static_cast<size_t>(std::count(st.mask[l].begin(), st.mask[l].end(), 1));
+    L.input_psnr_db = psnr(st.in[l], st.ref[l], st.mask[l]);
+    L.input_ssim = ssim(st.in[l], st.ref[l], st.mask[l]);
+    L.output_psnr_db = psnr(st.out[l], st.ref[l], st.mask[l]);
+    L.output_ssim = ssim(st.out[l], st.ref[l], st.mask[l]);
+    L.pair_psnr_db = psnr(st.out[l], st.in[l], st.mask[l]);
+    L.pair_ssim = ssim(st.out[l], st.in[l], st.mask[l]);
     r.levels.push_back(L);
   }
   return r;

@@ -99,11 +99,12 @@ static void appearance_json(const Comparison& c, nlohmann::json& j) {
   }
   json levels = json::array();
   for (const RenderLevel& l : c.rendered.levels)
-    levels.push_back({{"level", l.level}, {"pixels", l.pixels},
+    levels.push_back({{"level", l.level}, {"size", l.size}, {"pixels", l.pixels},
                       {"input_psnr_db", num(l.input_psnr_db)}, {"input_ssim", num(l.input_ssim)},
                       {"output_psnr_db", num(l.output_psnr_db)}, {"output_ssim", num(l.output_ssim)},
                       {"pair_psnr_db", num(l.pair_psnr_db)}, {"pair_ssim", num(l.pair_ssim)}});
-  j["rendered"] = {{"views", c.rendered.views}, {"size", c.rendered.size}, {"levels", levels}};
+  j["rendered"] = {{"views", c.rendered.views}, {"size", c.rendered.size}, {"supersample", c.rendered.supersample},
+                   {"levels", levels}};
 }
 
 nlohmann::json to_json(const Comparison& c) {
@@ -204,10 +205,11 @@ std::string summary(const Comparison& c) {
              c.seam_colour_input.mean, c.seam_colour_output.mean, c.seam_colour_input.rms, c.seam_colour_output.rms,
              c.seam_colour_input.seam_edges, c.seam_colour_output.seam_edges);
   if (c.has_rendered) {
-    s += fmt("rendered (%d views, %d px; PSNR vs input at L0: input / output; SSIM output)", c.rendered.views, c.rendered.size);
+    s += fmt("rendered (%d views from %d px down; PSNR vs the prefiltered input: input / output; SSIM output)",
+             c.rendered.views, c.rendered.size);
     for (const RenderLevel& l : c.rendered.levels) {
       auto db = [](double v) { return std::isfinite(v) ? fmt("%.1f", v) : std::string("inf"); };
-      s += fmt("  L%d %s/%s %.3f", l.level, db(l.input_psnr_db).c_str(), db(l.output_psnr_db).c_str(), l.output_ssim);
+      s += fmt("  %dpx %s/%s %.3f", l.size, db(l.input_psnr_db).c_str(), db(l.output_psnr_db).c_str(), l.output_ssim);
     }
     s += "\n";
   }

@@ -3,8 +3,9 @@
 // - texel clashes per MIP level: texels of a box-filtered MIP level whose footprint mixes two
 //   charts, or a chart and gutter (colour bleeding under minification);
 // - seam colour discrepancy: the colour difference across 3D seam edges, read on both sides;
-// - rendered-view fidelity: textured software renders of input and output from fixed views with
-//   the texture read at MIP levels 0..k, compared by PSNR and SSIM.
+// - rendered-view fidelity: textured software renders of input and output from fixed views at
+//   decreasing sizes with trilinear MIP-mapping, compared by PSNR and SSIM with a prefiltered
+//   (supersampled) rendering of the input.
 // Every function takes a mesh whose pages are canonicalised (canonical_pages) and sizes known.
 #pragma once
 
@@ -83,27 +84,33 @@ SeamColourMetrics seam_colour(const TexturedMesh& mesh, const std::vector<Image>
 // ---------------------------------------------------------------------------------------------
 // Rendered-view fidelity
 
+/// The model seen from farther and farther away: distance step d renders it at size / 2^d pixels
+/// (d = 0..max_level), as a renderer with trilinear MIP-mapping shows it, against a prefiltered
+/// reference (the input at MIP level 0 rendered at size x supersample and box-filtered down).
 struct RenderFidelityOptions {
-  int views = 5;      ///< fixed view directions (see render_view_direction), >= 1
-  int size = 256;     ///< pixels per side of each (square) render, >= 16
-  int max_level = 4;  ///< MIP levels 0..max_level, >= 0
+  int views = 5;        ///< fixed view directions (see render_view_direction), >= 1
+  int size = 512;       ///< pixels per side at distance step 0; a multiple of 2^max_level, size / 2^max_level >= 16
+  int max_level = 4;    ///< distance steps 0..max_level (0..10)
+  int supersample = 4;  ///< reference samples per pixel side at step 0 (size x supersample pixels rendered), >= 1
 };
 
-/// Fidelity at one MIP level, over every view; pixels covered by a face in either render count
-/// (background is black in both).
+/// Fidelity at one distance step, over every view. Compared pixels: those whose whole footprint
+/// in the supersampled reference is covered by the input (edge pixels, which mix background, are
+/// left out); a face lost by the output shows background there and costs fidelity.
 struct RenderLevel {
-  int level = 0;
+  int level = 0;              ///< distance step d
+  int size = 0;               ///< render size at this step: size / 2^d pixels per side
   size_t pixels = 0;          ///< compared pixels, all views
-  double input_psnr_db = 0;   ///< input rendered at this level vs input at level 0
+  double input_psnr_db = 0;   ///< input rendered at this step vs the reference
   double input_ssim = 0;
-  double output_psnr_db = 0;  ///< output rendered at this level vs input at level 0
+  double output_psnr_db = 0;  ///< output rendered at this step vs the reference
   double output_ssim = 0;
-  double pair_psnr_db = 0;    ///< output vs input, both at this level
+  double pair_psnr_db = 0;    ///< output vs input, both rendered at this step
   double pair_ssim = 0;
 };
 
 struct RenderFidelity {
-  int views = 0, size = 0;
+  int views = 0, size = 0, supersample = 0;
   std::vector<RenderLevel> levels;
 };
 
@@ -120,9 +127,13 @@ Vec3 render_view_direction(int i, int n);
 Image render_textured(const TexturedMesh& mesh, const std::vector<std::vector<Image>>& pyramids, const TexturedMesh& frame,
                       const Vec3& toward, int size, int level, std::vector<uint8_t>* mask);
 
-/// Renders input and output from options.views directions at MIP levels 0..max_level and
-/// compares them (RenderLevel). Both meshes are framed by the input's bounding box.
+/// Renders input and output from options.views directions at each distance step and compares
+/// them with the prefiltered reference (RenderLevel). Each face is read with trilinear filtering
+/// at the MIP level a GPU picks (log2 of the longer screen derivative of its texel coordinates),
+/// so an atlas whose charts bleed into gutter or into each other at coarse levels loses fidelity
+/// where a renderer would show it. All renders are framed by the input's bounding box.
 /// @param in_pages, out_pages  one image per page of each mesh
+/// @throws std::invalid_argument on options outside their ranges or a page count mismatch
 RenderFidelity rendered_fidelity(const TexturedMesh& in, const std::vector<Image>& in_pages, const TexturedMesh& out,
                                  const std::vector<Image>& out_pages, const RenderFidelityOptions& options = {});
 

@@ -191,7 +191,7 @@ struct EvalOptions {
   bool appearance = true;
   /// Texel clashes at MIP levels 0..clash_max_level (>= 0).
   int clash_max_level = 4;
-  /// Views, size and MIP levels of the rendered-view fidelity.
+  /// Views, sizes (distance steps) and reference supersampling of the rendered-view fidelity.
   RenderFidelityOptions render;
 };
 
