@@ -205,6 +205,8 @@ class Engine {
 
   // ---- the acceptance checks (check() runs them in this order)
   const char* check_shapes(const Move& mv);
+  double signed_uv_area(int f);
+  int chart_orientation(int c);
   const char* check_folds(const Move& mv) const;
   const char* check_distortion(Move& mv);
   const char* check_fans(const Move& mv);

@@ -300,11 +300,36 @@ const char* Engine::check(Move& mv) {
   return check_triangles(mv);
 }
 
+/// Signed UV area (texels^2) of face f at its current wedge positions.
+double Engine::signed_uv_area(int f) {
+  const Vec2 a = uv(wedge(f, 1)) - uv(wedge(f, 0)), b = uv(wedge(f, 2)) - uv(wedge(f, 0));
+  return 0.5 * (a.x() * b.y() - a.y() * b.x());
+}
+
+/// +1 / -1: the orientation (sign of the signed UV area) of chart c's faces that have input UV
+/// area (their Jacobians keep it, so one face tells); 0 when it has none.
+int Engine::chart_orientation(int c) {
+  for (int f : C(c).faces)
+    if (rest_w_[static_cast<size_t>(f)] > 0) return signed_uv_area(f) > 0 ? 1 : -1;
+  return 0;
+}
+
 const char* Engine::check_shapes(const Move& mv) {
-  // Flips first (any flipped face makes the reason "flip"), then near-collapsed faces.
+  // Flips first (any flipped face makes the reason "flip"), then near-collapsed faces. A face of
+  // zero input UV area has no rest shape (no Jacobian, no weight), but it may not turn over
+  // either: once its signed UV area is beyond the framework's overlap threshold (1e-6 texels^2,
+  // core/uv_overlap.h) it must have the merged chart's orientation, else it would overlap its
+  // neighbours (seen on a real 3D Tiles producer whose atlas has many zero-area faces).
+  constexpr double kZeroFaceFlipArea = 1e-6;
   bool collapsed = false;
+  int orientation = 2;  // not yet computed
   for (int f : mv.changed) {
-    if (rest_w_[static_cast<size_t>(f)] == 0) continue;
+    if (rest_w_[static_cast<size_t>(f)] == 0) {
+      if (topo_.face_degenerate[static_cast<size_t>(f)]) continue;
+      if (orientation == 2) orientation = chart_orientation(mv.big);
+      if (orientation * signed_uv_area(f) < -kZeroFaceFlipArea) return "flip";
+      continue;
+    }
     const Mat2 J = jacobian(f);
     if (J.determinant() <= 0) return "flip";
     if (opt_.min_singular_value > 0 && !collapsed)

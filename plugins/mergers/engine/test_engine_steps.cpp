@@ -158,6 +158,38 @@ TEST(MergeEngineSteps, CheckNamesTheFirstFailingTest) {
   EXPECT_EQ(reason, "flip");
 }
 
+// A face of zero input UV area has no Jacobian, so the flip test used to skip it: a merge could
+// turn it over onto its neighbours (a real 3D Tiles producer's atlas has many such faces). Here
+// the right square's face 2 (positions 1, 2, 5) has its corner 2 midway from corner 1 to corner 5
+// (zero area; position 2 belongs to face 2 alone). Aligned, welded and solved, it stays flat:
+// accepted. Its corner 2 moved across the line 1-5 (only face 2 turns over): "flip".
+TEST(MergeEngineSteps, AZeroUvAreaFaceMayNotTurnOver) {
+  TexturedMesh m = two_squares(false);
+  m.texcoords[static_cast<size_t>(m.faces[2].vt[1])] = Vec2(48, 16) / 64.0;  // midway from (56,8) to (40,24)
+  MergeOptions opt;
+  opt.priority = Priority::MMethod;
+  Steps s(m, opt);
+  ASSERT_EQ(s.run.ctx.atlas.face_chart[2], s.right);
+  EXPECT_EQ(s.engine.chart_info(s.right).uv_area, 128.0);  // face 3 only
+  detail::Move mv = s.engine.begin_move(s.left, s.right);
+  s.engine.align(mv);
+  s.engine.weld(mv);
+  s.engine.free_region(mv);
+  s.engine.solve(mv);
+  ASSERT_TRUE(mv.solved);
+  {
+    const char* why = s.engine.check(mv);
+    EXPECT_EQ(why, nullptr) << why;
+  }
+  const Vec2 c1 = s.uv(2, 0), c5 = s.uv(2, 2);
+  Vec2& c2 = s.run.ctx.atlas.wedge_uv[static_cast<size_t>(s.run.ctx.atlas.face_wedge[2][1])];
+  const Vec2 e = c5 - c1, n(-e.y(), e.x());  // n: left of 1 -> 5
+  c2 = 0.5 * (c1 + c5) + 0.25 * n;
+  const Vec2 a = c2 - c1;
+  ASSERT_LT(a.x() * e.y() - a.y() * e.x(), 0);  // face 2 (1, 2, 5) is clockwise now
+  EXPECT_STREQ(s.engine.check(mv), "flip");
+  s.engine.rollback();
+}
 
 double signed_area(const Atlas& at, int f) {
   const auto& w = at.face_wedge[static_cast<size_t>(f)];
