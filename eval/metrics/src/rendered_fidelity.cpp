@@ -117,43 +117,6 @@ GBuffer rasterise(const TexturedMesh& mesh, const Camera& cam) {
   return g;
 }
 
-/// Each covered pixel: the nearest face's texture on MIP level `level`, read bilinearly, or with
-/// `nearest` the texel holding the point (no filter, so it never reads outside the texels the
-/// triangle covers).
-Image shade(const TexturedMesh& mesh, const std::vector<std::vector<Image>>& pyramids, const GBuffer& g, int level,
-            std::vector<uint8_t>* mask, bool nearest = false) {
-  Image im;
-  im.width = g.width, im.height = g.height, im.channels = 3;
-  im.pixels.assign(g.face.size() * 3, 0);
-  if (mask) mask->assign(g.face.size(), 0);
-  for (size_t i = 0; i < g.face.size(); ++i) {
-    const int f = g.face[i];
-    if (f < 0) continue;
-    if (mask) (*mask)[i] = 1;
-    const Face& fc = mesh.faces[static_cast<size_t>(f)];
-    uint8_t* px = &im.pixels[i * 3];
-    if (fc.page == kNoPage) {
-      px[0] = px[1] = px[2] = 128;
-      continue;
-    }
-    const std::vector<Image>& pyr = pyramids[static_cast<size_t>(fc.page)];
-    const Image& tex = pyr[static_cast<size_t>(std::min<int>(level, static_cast<int>(pyr.size()) - 1))];
-    Vec2 uv(0, 0);
-    for (int k = 0; k < 3; ++k) uv += static_cast<double>(g.bary[i][static_cast<size_t>(k)]) * mesh.texcoords[static_cast<size_t>(fc.vt[static_cast<size_t>(k)])];
-    if (nearest) {
-      const int x = std::clamp(static_cast<int>(std::floor(uv.x() * tex.width)), 0, tex.width - 1);
-      const int y = std::clamp(tex.height - 1 - static_cast<int>(std::floor(uv.y() * tex.height)), 0, tex.height - 1);
-      const uint8_t* t = tex.at(x, y);
-      for (int c = 0; c < 3; ++c) px[c] = t[tex.channels >= 3 ? c : 0];
-      continue;
-    }
-    double rgb[3];
-    bilinear_rgb(tex, uv.x() * tex.width, uv.y() * tex.height, rgb);
-    for (int c = 0; c < 3; ++c) px[c] = static_cast<uint8_t>(std::lround(std::clamp(rgb[c], 0.0, 255.0)));
-  }
-  return im;
-}
-
 /// Per face, the MIP level a GPU picks for it in `cam` (OpenGL's isotropic rule; the texel map of
 /// a triangle under an orthographic camera is affine, so its derivatives are constant): lambda =
 /// log2 of the longer of |d(s,t)/dx| and |d(s,t)/dy|, (s,t) in texels of level 0 of its page,
@@ -184,32 +147,54 @@ std::vector<float> face_lods(const TexturedMesh& mesh, const std::vector<std::ve
   return lod;
 }
 
-/// Like shade, each face read with trilinear filtering at its level `lods[face]` (the two nearest
-/// MIP levels read bilinearly and blended).
-Image shade_trilinear(const TexturedMesh& mesh, const std::vector<std::vector<Image>>& pyramids, const GBuffer& g,
-                      const std::vector<float>& lods) {
+/// How shade reads a face's texture: bilinearly on MIP level `level`; or the texel of level 0
+/// holding the point (`nearest`: no filter, so it never reads a texel the triangle does not
+/// cover); or, with `lods`, trilinearly at the face's level lods[face] (the two nearest levels
+/// read bilinearly and blended).
+struct Sampling {
+  int level = 0;
+  bool nearest = false;
+  const std::vector<float>* lods = nullptr;
+};
+
+void sample(const std::vector<Image>& pyr, const Vec2& uv, const Sampling& s, int face, uint8_t* px) {
+  if (s.nearest) {
+    const Image& tex = pyr[0];
+    const int x = std::clamp(static_cast<int>(std::floor(uv.x() * tex.width)), 0, tex.width - 1);
+    const int y = std::clamp(tex.height - 1 - static_cast<int>(std::floor(uv.y() * tex.height)), 0, tex.height - 1);
+    for (int c = 0; c < 3; ++c) px[c] = tex.at(x, y)[tex.channels >= 3 ? c : 0];
+    return;
+  }
+  const double lod = s.lods ? (*s.lods)[static_cast<size_t>(face)] : std::min<double>(s.level, static_cast<double>(pyr.size() - 1));
+  const size_t lo = static_cast<size_t>(std::floor(lod)), hi = std::min(lo + 1, pyr.size() - 1);
+  const double t = lod - static_cast<double>(lo);
+  double a[3], b[3] = {0, 0, 0};
+  bilinear_rgb(pyr[lo], uv.x() * pyr[lo].width, uv.y() * pyr[lo].height, a);
+  if (t > 0) bilinear_rgb(pyr[hi], uv.x() * pyr[hi].width, uv.y() * pyr[hi].height, b);
+  for (int c = 0; c < 3; ++c) px[c] = static_cast<uint8_t>(std::lround(std::clamp((1 - t) * a[c] + t * b[c], 0.0, 255.0)));
+}
+
+/// Each covered pixel: the nearest face's texture read as `s` says (untextured faces grey 128,
+/// background black); `mask`, when given, is set to 1 where a face covers the pixel.
+Image shade(const TexturedMesh& mesh, const std::vector<std::vector<Image>>& pyramids, const GBuffer& g, const Sampling& s,
+            std::vector<uint8_t>* mask = nullptr) {
   Image im;
   im.width = g.width, im.height = g.height, im.channels = 3;
   im.pixels.assign(g.face.size() * 3, 0);
+  if (mask) mask->assign(g.face.size(), 0);
   for (size_t i = 0; i < g.face.size(); ++i) {
     const int f = g.face[i];
     if (f < 0) continue;
+    if (mask) (*mask)[i] = 1;
     const Face& fc = mesh.faces[static_cast<size_t>(f)];
     uint8_t* px = &im.pixels[i * 3];
     if (fc.page == kNoPage) {
       px[0] = px[1] = px[2] = 128;
       continue;
     }
-    const std::vector<Image>& pyr = pyramids[static_cast<size_t>(fc.page)];
-    const double lod = lods[static_cast<size_t>(f)];
-    const size_t lo = static_cast<size_t>(std::floor(lod)), hi = std::min(lo + 1, pyr.size() - 1);
-    const double t = lod - static_cast<double>(lo);
     Vec2 uv(0, 0);
     for (int k = 0; k < 3; ++k) uv += static_cast<double>(g.bary[i][static_cast<size_t>(k)]) * mesh.texcoords[static_cast<size_t>(fc.vt[static_cast<size_t>(k)])];
-    double a[3], b[3] = {0, 0, 0};
-    bilinear_rgb(pyr[lo], uv.x() * pyr[lo].width, uv.y() * pyr[lo].height, a);
-    if (t > 0) bilinear_rgb(pyr[hi], uv.x() * pyr[hi].width, uv.y() * pyr[hi].height, b);
-    for (int c = 0; c < 3; ++c) px[c] = static_cast<uint8_t>(std::lround(std::clamp((1 - t) * a[c] + t * b[c], 0.0, 255.0)));
+    sample(pyramids[static_cast<size_t>(fc.page)], uv, s, f, px);
   }
   return im;
 }
@@ -258,7 +243,9 @@ Image render_textured(const TexturedMesh& mesh, const std::vector<std::vector<Im
                       const Vec3& toward, int size, int level, std::vector<uint8_t>* mask) {
   if (size < 16) throw std::invalid_argument("render_textured: size must be at least 16");
   if (pyramids.size() != mesh.pages.size()) throw std::invalid_argument("render_textured: one pyramid per page expected");
-  return shade(mesh, pyramids, rasterise(mesh, frame_camera(frame, toward, size)), level, mask);
+  Sampling s;
+  s.level = level;
+  return shade(mesh, pyramids, rasterise(mesh, frame_camera(frame, toward, size)), s, mask);
 }
 
 namespace {
@@ -282,7 +269,9 @@ void render_view(const TexturedMesh& in, const std::vector<std::vector<Image>>& 
   const int fine_size = o.size * o.supersample;
   const GBuffer gref = rasterise(in, square_camera(in, toward, fine_size));
   std::vector<uint8_t> cover;
-  const Image fine = shade(in, in_pyr, gref, 0, &cover, /*nearest=*/true);
+  Sampling nearest;
+  nearest.nearest = true;
+  const Image fine = shade(in, in_pyr, gref, nearest, &cover);
   for (int d = 0; d <= o.max_level; ++d) {
     const int size = o.size >> d;
     const Camera cam = square_camera(in, toward, size);
@@ -290,8 +279,11 @@ void render_view(const TexturedMesh& in, const std::vector<std::vector<Image>>& 
     append(st.ref[static_cast<size_t>(d)], box_down(fine, cover, fine_size / size, full));
     std::vector<uint8_t>& m = st.mask[static_cast<size_t>(d)];
     m.insert(m.end(), full.begin(), full.end());
-    append(st.in[static_cast<size_t>(d)], shade_trilinear(in, in_pyr, rasterise(in, cam), face_lods(in, in_pyr, cam)));
-    append(st.out[static_cast<size_t>(d)], shade_trilinear(out, out_pyr, rasterise(out, cam), face_lods(out, out_pyr, cam)));
+    const std::vector<float> in_lods = face_lods(in, in_pyr, cam), out_lods = face_lods(out, out_pyr, cam);
+    Sampling si, so;
+    si.lods = &in_lods, so.lods = &out_lods;
+    append(st.in[static_cast<size_t>(d)], shade(in, in_pyr, rasterise(in, cam), si));
+    append(st.out[static_cast<size_t>(d)], shade(out, out_pyr, rasterise(out, cam), so));
   }
 }
 
