@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs dependencies, builds texdefrag, runs the main pipeline on the bundled example and prints
-# its metrics (input vs output).
+# its metrics (input vs output), then runs it on the bundled production (examples/production: a
+# ContextCapture-style tile at two levels with metadata.xml) and prints its per-tile lines.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -12,3 +13,4 @@ MODEL=examples/building/building.obj
 OUT=${OUT:-out/demo}
 "$BUILD/bin/texdefrag" run -c "$CONFIG" "$MODEL" -o "$OUT"
 "$BUILD/bin/texdefrag" eval "$MODEL" "$OUT/building.obj"
+"$BUILD/bin/texdefrag" run -c "$CONFIG" examples/production -o "$OUT/production"
