@@ -178,6 +178,9 @@ FidelityMetrics texture_fidelity(const TexturedMesh& in, const std::vector<Image
     r.weight += area;
     const Image& ii = in_pages[static_cast<size_t>(in.faces[f].page)];
     const Image& oi = out_pages[static_cast<size_t>(out.faces[static_cast<size_t>(fo)].page)];
+    // Each page read with its own addressing (repeat unless `map_Kd -clamp on`), as the resampler does.
+    const bool in_repeat = !in.pages[static_cast<size_t>(in.faces[f].page)].clamp;
+    const bool out_repeat = !out.pages[static_cast<size_t>(out.faces[static_cast<size_t>(fo)].page)].clamp;
     Vec2 t;
     const int rot = whole_texel_map(o, n, options.rigid_tolerance, t);
     if (rot >= 0) {
@@ -192,8 +195,8 @@ FidelityMetrics texture_fidelity(const TexturedMesh& in, const std::vector<Image
       const Vec2 pi = o[0] + a * (o[1] - o[0]) + b * (o[2] - o[0]);
       const Vec2 po = n[0] + a * (n[1] - n[0]) + b * (n[2] - n[0]);
       double ci[3], co[3];
-      bilinear_rgb(ii, pi.x(), pi.y(), ci);
-      bilinear_rgb(oi, po.x(), po.y(), co);
+      bilinear_rgb(ii, pi.x(), pi.y(), ci, in_repeat);
+      bilinear_rgb(oi, po.x(), po.y(), co, out_repeat);
       double e = 0;
       for (int c = 0; c < 3; ++c) e += (ci[c] - co[c]) * (ci[c] - co[c]);
       sq += w * e / 3.0;

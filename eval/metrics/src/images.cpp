@@ -46,13 +46,16 @@ std::vector<Image> mip_pyramid(const Image& img, int max_level) {
   return levels;
 }
 
-void bilinear_rgb(const Image& img, double x, double y, double rgb[3]) {
+void bilinear_rgb(const Image& img, double x, double y, double rgb[3], bool repeat) {
   const double fx = x - 0.5, fr = static_cast<double>(img.height) - y - 0.5;  // column, row (top down)
   const double x0 = std::floor(fx), r0 = std::floor(fr);
   const double tx = fx - x0, tr = fr - r0;
-  const auto clampi = [](double v, int hi) { return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(hi))); };
-  const int c0 = clampi(x0, img.width - 1), c1 = clampi(x0 + 1, img.width - 1);
-  const int w0 = clampi(r0, img.height - 1), w1 = clampi(r0 + 1, img.height - 1);
+  const auto index = [repeat](double v, int n) {
+    if (repeat) return static_cast<int>(v - static_cast<double>(n) * std::floor(v / n));  // v mod n, in [0, n)
+    return static_cast<int>(std::clamp(v, 0.0, static_cast<double>(n - 1)));
+  };
+  const int c0 = index(x0, img.width), c1 = index(x0 + 1, img.width);
+  const int w0 = index(r0, img.height), w1 = index(r0 + 1, img.height);
   const int ch = img.channels;
   const uint8_t* p00 = img.at(c0, w0);
   const uint8_t* p10 = img.at(c1, w0);

@@ -417,6 +417,21 @@ TEST(Fidelity, WholeTexelTranslationAndRotationAreCopies) {
   }
 }
 
+// An input whose charts lie at u = 37..38 (the MTL default addressing is repeat, as the resampler
+// reads it) against an output reading the same texels inside [0, 1]: the same colours, unless the
+// input's page says `-clamp on`, where those UVs read the page's edge column.
+TEST(Fidelity, PagesAreReadWithTheirAddressing) {
+  const TexturedMesh out = fx::fragmented_grid_mesh(2, 2, 64, "unused.png");
+  TexturedMesh in = out;
+  for (Vec2& t : in.texcoords) t.x() += 37;
+  const std::vector<Image> pages = {noise(64, 64, 5)};
+  FidelityOptions opt;
+  opt.samples = 5000;
+  EXPECT_GT(texture_fidelity(in, pages, out, pages, match_faces(in, out), opt).psnr_db, 100.0);
+  in.pages[0].clamp = true;
+  EXPECT_LT(texture_fidelity(in, pages, out, pages, match_faces(in, out), opt).psnr_db, 20.0);
+}
+
 TEST(Fidelity, ImageSizeMismatchIsAnError) {
   const TexturedMesh m = fx::grid_mesh(1, 1, 32, "unused.png");
   EXPECT_THROW(texture_fidelity(m, {solid(16, 16, 0, 0, 0)}, m, {solid(32, 32, 0, 0, 0)}, match_faces(m, m)),

@@ -26,8 +26,10 @@ namespace texdefrag::eval {
 std::vector<Image> mip_pyramid(const Image& img, int max_level);
 
 /// Bilinear RGB colour at texel coordinates (x, y) of `img`, y up (as OBJ v), texel centres at
-/// half-integers, clamped at the border; 1-4 channels (grey replicated, alpha ignored).
-void bilinear_rgb(const Image& img, double x, double y, double rgb[3]);
+/// half-integers; 1-4 channels (grey replicated, alpha ignored). Outside the image the texels are
+/// those of the page's addressing: clamped to the border, or with `repeat` (the MTL default,
+/// core/mesh.h Page::clamp false) wrapped around, as the resampler reads them.
+void bilinear_rgb(const Image& img, double x, double y, double rgb[3], bool repeat = false);
 
 /// PSNR (dB) of two RGB images of equal size over the pixels where mask != 0: 10 log10(255^2 /
 /// MSE), MSE the mean over masked pixels and channels; +infinity when equal; NaN when the mask is
