@@ -17,8 +17,12 @@ int run_production_command(const PipelineConfig& config, const std::string& inpu
   ro.output_dir = output_dir;
   ro.progress = progress;
   ro.allow_missing_children = allow_missing_children;
-  ro.on_task = [&](size_t i, const ProductionTask& t, const json& report) {
-    if (quiet) return;
+  ro.on_task = [&](size_t i, const ProductionTask& t, const json& row, const json& report) {
+    if (row["status"] == "failed") {  // printed even when quiet: the exit code alone does not say which
+      std::fprintf(stderr, "[%zu/%zu] FAILED %s\n", i + 1, p.tasks.size(), row["error"].get<std::string>().c_str());
+      return;
+    }
+    if (quiet || report.is_null()) return;
     const auto& in = report["input_stats"];
     const auto& out = report["output_stats"];
     std::fprintf(stderr, "[%zu/%zu] %s: %d faces, %d charts => %d charts, %.2f MP => %.2f MP, in %.2f s\n", i + 1,
@@ -27,13 +31,17 @@ int run_production_command(const PipelineConfig& config, const std::string& inpu
                  report["total_time_s"].get<double>());
   };
   const json summary = run_production(config, p, ro);
+  const size_t failed = summary["failed"].get<size_t>();
   if (!quiet) {
     const json& all = summary["levels"]["all"];
-    std::fprintf(stderr, "%s: %zu tiles (%s), %zu files copied; texture %.2f MB => %.2f MB; summary %s/texdefrag_summary.json\n",
-                 input.c_str(), p.tasks.size(), p.kind.c_str(), p.copies.size(), all["page_bytes_in"].get<double>() / 1e6,
-                 all["page_bytes_out"].get<double>() / 1e6, output_dir.c_str());
+    std::fprintf(stderr, "%s: %zu tiles (%s), %zu failed, %zu files copied; texture %.2f MB => %.2f MB; summary %s/texdefrag_summary.json\n",
+                 input.c_str(), p.tasks.size(), p.kind.c_str(), failed, p.copies.size(),
+                 all["page_bytes_in"].get<double>() / 1e6, all["page_bytes_out"].get<double>() / 1e6, output_dir.c_str());
   }
-  return 0;
+  if (failed > 0)
+    std::fprintf(stderr, "texdefrag run: %zu of %zu tiles failed (listed in %s/texdefrag_summary.json)\n", failed,
+                 p.tasks.size(), output_dir.c_str());
+  return failed > 0 ? 1 : 0;
 }
 
 }  // namespace texdefrag::cli

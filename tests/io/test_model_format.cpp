@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -83,19 +84,84 @@ TEST(ModelFormat, PageFormatFollowsTheInput) {
   m.mesh.faces.resize(2);
   m.mesh.faces[0].page = 0;
   m.mesh.faces[1].page = 1;
-  m.page_encodings = {{"jpeg", 80, 100}, {"jpeg", 87, 100}};
+  m.page_encodings = {{"jpeg", 80, 100, std::nullopt}, {"jpeg", 87, 100, std::nullopt}};
   PageWriteOptions o = choose_page_options(m, "input", 95, true);
   EXPECT_EQ(o.format, ImageFormat::Jpeg);
   EXPECT_EQ(o.jpeg_quality, 87);  // the largest input quality
   o = choose_page_options(m, "input", 60, false);
   EXPECT_EQ(o.jpeg_quality, 60);
   EXPECT_EQ(choose_page_options(m, "png", 95, true).format, ImageFormat::Png);
-  m.page_encodings[1] = {"png", std::nullopt, 100};
+  m.page_encodings[1] = {"png", std::nullopt, 100, std::nullopt};
   EXPECT_EQ(choose_page_options(m, "input", 95, true).format, ImageFormat::Png);  // mixed: lossless
   m.mesh.faces[1].page = kNoPage;  // the PNG page is not used by any face
   EXPECT_EQ(choose_page_options(m, "input", 95, true).format, ImageFormat::Jpeg);
   EXPECT_EQ(choose_page_options(m, "jpeg", 95, false).jpeg_quality, 95);
   EXPECT_THROW(choose_page_options(m, "webp", 95, true), FormatError);
+}
+
+TEST(JpegSubsampling, ReadFromTheFrameHeader) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  for (JpegSubsampling s : {JpegSubsampling::S444, JpegSubsampling::S422, JpegSubsampling::S420}) {
+    const std::string path = dir + "/s" + std::to_string(static_cast<int>(s)) + ".jpg";
+    write_image(path, gradient(64, 48), ImageFormat::Jpeg, 90, s);
+    EXPECT_EQ(read_jpeg_subsampling_of_file(path), s) << jpeg_subsampling_name(s);
+    EXPECT_EQ(page_encoding_of_file(path).jpeg_subsampling, s);
+  }
+  // write_image's default is libjpeg's own 4:2:0 (the pipeline passes output.jpeg_subsampling).
+  write_image(dir + "/default.jpg", gradient(64, 48), ImageFormat::Jpeg, 90);
+  EXPECT_EQ(read_jpeg_subsampling_of_file(dir + "/default.jpg"), JpegSubsampling::S420);
+  // Not a JPEG, truncated before the SOF, a grey image: unknown.
+  write_image(dir + "/p.png", gradient(8, 8), ImageFormat::Png);
+  EXPECT_FALSE(read_jpeg_subsampling_of_file(dir + "/p.png").has_value());
+  const uint8_t truncated[] = {0xFF, 0xD8, 0xFF, 0xDB, 0x00, 0x43, 0x00, 0x01};
+  EXPECT_FALSE(read_jpeg_subsampling(truncated, sizeof truncated).has_value());
+  Image grey = gradient(16, 16);
+  grey.channels = 1;
+  grey.pixels.resize(16 * 16);
+  write_image(dir + "/grey.jpg", grey, ImageFormat::Jpeg, 90, JpegSubsampling::S420);
+  EXPECT_FALSE(read_jpeg_subsampling_of_file(dir + "/grey.jpg").has_value());
+}
+
+// Colour detail at the texel scale (alternating red and blue columns, as saturated vegetation
+// or roof edges in an atlas) survives 4:4:4 and is lost by 4:2:0 at the same quality.
+TEST(JpegSubsampling, FourFourFourKeepsColourDetail) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  Image img = gradient(64, 64);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) {
+      uint8_t* p = img.at(x, y);
+      p[0] = x % 2 ? 200 : 30;
+      p[1] = 90;
+      p[2] = x % 2 ? 30 : 200;
+    }
+  auto error = [&](JpegSubsampling s) {
+    const std::string path = dir + "/c" + std::to_string(static_cast<int>(s)) + ".jpg";
+    write_image(path, img, ImageFormat::Jpeg, 100, s);
+    const Image back = read_image(path);
+    double e = 0;
+    for (size_t i = 0; i < img.pixels.size(); ++i) e += std::abs(int(back.pixels[i]) - int(img.pixels[i]));
+    return e / static_cast<double>(img.pixels.size());
+  };
+  const double e444 = error(JpegSubsampling::S444), e420 = error(JpegSubsampling::S420);
+  EXPECT_LT(e444, 3.0);
+  EXPECT_GT(e420, 10 * e444) << e444 << " vs " << e420;
+}
+
+TEST(ModelFormat, JpegSubsamplingIsForcedOrTheInputs) {
+  LoadedModel m;
+  m.mesh.pages.resize(2);
+  m.mesh.faces.resize(2);
+  m.mesh.faces[0].page = 0;
+  m.mesh.faces[1].page = 1;
+  m.page_encodings = {{"jpeg", 90, 100, JpegSubsampling::S420}, {"jpeg", 90, 100, JpegSubsampling::S422}};
+  EXPECT_EQ(choose_page_options(m, "input", 95, true).jpeg_subsampling, JpegSubsampling::S444);  // the default
+  EXPECT_EQ(choose_page_options(m, "input", 95, true, "4:2:0").jpeg_subsampling, JpegSubsampling::S420);
+  EXPECT_EQ(choose_page_options(m, "input", 95, true, "input").jpeg_subsampling, JpegSubsampling::S422);  // finest
+  m.mesh.faces[1].page = kNoPage;  // only textured pages count
+  EXPECT_EQ(choose_page_options(m, "input", 95, true, "input").jpeg_subsampling, JpegSubsampling::S420);
+  m.page_encodings[0].jpeg_subsampling.reset();  // unknown: 4:4:4
+  EXPECT_EQ(choose_page_options(m, "input", 95, true, "input").jpeg_subsampling, JpegSubsampling::S444);
+  EXPECT_THROW(choose_page_options(m, "input", 95, true, "4:1:1"), FormatError);
 }
 
 TEST(ModelFormat, ObjWritesWhatWriteObjWrites) {

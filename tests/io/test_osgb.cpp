@@ -296,20 +296,64 @@ TEST(Production, RunsEveryTileIntoTheSameLayout) {
   osgb_test::expect_same_positions(in.mesh, back.mesh, "Tile_A");
   EXPECT_EQ(osgb_test::structure(root + "/Tile_A/Tile_A.osgb"), osgb_test::structure(out + "/Tile_A/Tile_A.osgb"));
 
-  // Output inside the production, a missing child (names child and parent, no summary), a folder
-  // with only a tileset.json: errors.
+  EXPECT_EQ(summary["failed"], 0);
+  for (const json& row : summary["tasks"]) EXPECT_EQ(row["status"], "ok") << row.dump();
+
+  // Output inside the production, a folder with only a tileset.json: errors.
   ro.output_dir = root + "/out";
   EXPECT_NE(error_of([&] { run_production(cfg, list_production(root, ro.output_dir), ro); }).find("inside it"),
             std::string::npos);
-  fs::remove(root + "/Tile_A/child.osgb");
-  const std::string out2 = root + "_out2";
-  ro.output_dir = out2;
-  const std::string e = error_of([&] { run_production(cfg, list_production(root, out2), ro); });
-  EXPECT_NE(e.find("Tile_A/Tile_A.osgb"), std::string::npos) << e;
-  EXPECT_NE(e.find("child 'child.osgb' of"), std::string::npos) << e;
-  EXPECT_FALSE(fs::exists(out2 + "/texdefrag_summary.json"));
   const std::string tiles = texdefrag::testing::temp_dir() + "/tiles";
   fs::create_directories(tiles);
   std::ofstream(tiles + "/tileset.json") << "{}";
   EXPECT_NE(error_of([&] { list_production(tiles, ""); }).find("3D Tiles"), std::string::npos);
+}
+
+// A failing tile (a missing PagedLOD child, an unreadable file) is recorded in the summary with its
+// error naming the file; none of its files appear; the other tiles and the copies go on.
+TEST(Production, AFailingTileIsRecordedAndTheOthersGoOn) {
+  const std::string root = texdefrag::testing::temp_dir() + "/prod";
+  for (const char* t : {"Tile_A", "Tile_B"}) {
+    fs::create_directories(root + "/" + t);
+    build_scene(root + "/" + t);
+    fs::rename(root + "/" + t + "/tile.osgb", root + "/" + t + "/" + t + ".osgb");
+  }
+  fs::remove(root + "/Tile_A/child.osgb");  // Tile_A's root names it
+  fs::create_directories(root + "/Tile_C");
+  std::ofstream(root + "/Tile_C/Tile_C.osgb") << "not an osgb file";
+  std::ofstream(root + "/metadata.xml") << "<ModelMetadata version=\"1\"><SRS>EPSG:4547</SRS></ModelMetadata>\n";
+  const std::string out = root + "_out";
+  const Production p = list_production(root, out);
+  ASSERT_EQ(p.tasks.size(), 4u);  // Tile_A root, Tile_B root and child, Tile_C root
+  const PipelineConfig cfg = load_config((fs::path(source_dir()) / "configs" / "repack.json").string());
+  ProductionRunOptions ro;
+  ro.output_dir = out;
+  std::vector<std::string> seen;
+  ro.on_task = [&](size_t, const ProductionTask& t, const json& row, const json& report) {
+    seen.push_back(t.relative + ":" + row["status"].get<std::string>());
+    EXPECT_EQ(report.is_null(), row["status"] == "failed") << t.relative;
+  };
+  const json summary = run_production(cfg, p, ro);
+  EXPECT_EQ(seen, (std::vector<std::string>{"Tile_A/Tile_A.osgb:failed", "Tile_B/Tile_B.osgb:ok",
+                                            "Tile_B/child.osgb:ok", "Tile_C/Tile_C.osgb:failed"}));
+  EXPECT_EQ(summary["failed"], 2);
+  EXPECT_EQ(summary["levels"]["all"]["tasks"], 4);
+  EXPECT_EQ(summary["levels"]["all"]["failed"], 2);
+  const json on_disk = json::parse(std::ifstream(out + "/texdefrag_summary.json"));
+  EXPECT_EQ(on_disk["tasks"], summary["tasks"]);
+  const std::string e0 = summary["tasks"][0].value("error", "");
+  EXPECT_NE(e0.find("production task 1/4 (Tile_A/Tile_A.osgb)"), std::string::npos) << e0;
+  EXPECT_NE(e0.find("child 'child.osgb' of " + root + "/Tile_A/Tile_A.osgb"), std::string::npos) << e0;
+  const std::string e3 = summary["tasks"][3].value("error", "");
+  EXPECT_NE(e3.find(root + "/Tile_C/Tile_C.osgb: "), std::string::npos) << e3;
+  // Nothing of the failed tiles, everything of the good one, the copy; no staging left.
+  EXPECT_FALSE(fs::exists(out + "/Tile_A/Tile_A.osgb"));
+  EXPECT_FALSE(fs::exists(out + "/Tile_C/Tile_C.osgb"));
+  EXPECT_FALSE(fs::exists(out + "/Tile_C/Tile_C.report.json"));
+  for (const char* f : {"Tile_B/Tile_B.osgb", "Tile_B/child.osgb", "Tile_B/Tile_B.report.json", "metadata.xml"})
+    EXPECT_TRUE(fs::exists(out + "/" + f)) << f;
+  for (const auto& entry : fs::recursive_directory_iterator(out))
+    EXPECT_EQ(entry.path().filename().string().find(".texdefrag-staging"), std::string::npos) << entry.path();
+  // The inputs are untouched: still the garbage tile and no output in the production.
+  EXPECT_FALSE(fs::exists(root + "/Tile_B/Tile_B.report.json"));
 }

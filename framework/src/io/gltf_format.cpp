@@ -37,7 +37,10 @@ LoadedModel loaded_from(GltfModel g, const std::string& root) {
       m.page_images[p] = read_gltf_page(g, static_cast<int>(p));
       e.format = s.mime == "image/png" ? "png" : "jpeg";
       e.bytes = s.embedded.size();
-      if (e.format == "jpeg") e.jpeg_quality = estimate_jpeg_quality(s.embedded.data(), s.embedded.size());
+      if (e.format == "jpeg") {
+        e.jpeg_quality = estimate_jpeg_quality(s.embedded.data(), s.embedded.size());
+        e.jpeg_subsampling = read_jpeg_subsampling(s.embedded.data(), s.embedded.size());
+      }
     }
     if (!s.replaces_ktx2.empty()) m.input_files.push_back(s.replaces_ktx2);
     m.page_encodings.push_back(e);
@@ -57,7 +60,7 @@ std::vector<uint8_t> encode_image(const Image& image, const PageWriteOptions& op
   const fs::path tmp = fs::temp_directory_path() / ("texdefrag-page-" + std::to_string(::getpid()) + "-" +
                                                     std::to_string(counter++) +
                                                     (options.format == ImageFormat::Jpeg ? ".jpg" : ".png"));
-  write_image(tmp.string(), image, options.format, options.jpeg_quality);
+  write_image(tmp.string(), image, options.format, options.jpeg_quality, options.jpeg_subsampling);
   std::ifstream in(tmp, std::ios::binary);
   std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   in.close();

@@ -83,13 +83,62 @@ std::optional<int> estimate_jpeg_quality(const uint8_t* data, size_t size) {
   return best;
 }
 
-std::optional<int> estimate_jpeg_quality_of_file(const std::string& path) {
+namespace {
+
+/// The first 64 KiB of a file (JPEG headers precede the scan data); empty when unreadable.
+std::vector<uint8_t> file_head(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) return std::nullopt;
-  std::vector<char> buf(64 * 1024);
-  in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
-  const size_t n = static_cast<size_t>(in.gcount());
-  return estimate_jpeg_quality(reinterpret_cast<const uint8_t*>(buf.data()), n);
+  if (!in) return {};
+  std::vector<uint8_t> buf(64 * 1024);
+  in.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(buf.size()));
+  buf.resize(static_cast<size_t>(in.gcount()));
+  return buf;
+}
+
+}  // namespace
+
+std::optional<int> estimate_jpeg_quality_of_file(const std::string& path) {
+  const std::vector<uint8_t> head = file_head(path);
+  return estimate_jpeg_quality(head.data(), head.size());
+}
+
+std::optional<JpegSubsampling> read_jpeg_subsampling(const uint8_t* data, size_t size) {
+  if (size < 4 || data[0] != 0xFF || data[1] != 0xD8) return std::nullopt;
+  size_t pos = 2;
+  while (pos + 4 <= size) {
+    if (data[pos] != 0xFF) return std::nullopt;
+    const uint8_t marker = data[pos + 1];
+    if (marker == 0xFF) {  // fill byte
+      ++pos;
+      continue;
+    }
+    if (marker == 0xDA || marker == 0xD9) return std::nullopt;  // SOS / EOI before any SOF
+    const size_t len = static_cast<size_t>(data[pos + 2]) << 8 | data[pos + 3];
+    if (len < 2) return std::nullopt;
+    // SOF0..SOF15 except DHT (C4), JPG (C8) and DAC (CC).
+    const bool sof = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+    if (sof) {
+      // length(2) precision(1) height(2) width(2) components(1), then 3 bytes per component:
+      // id, H<<4|V, table.
+      if (len < 8 || pos + 2 + len > size) return std::nullopt;
+      const size_t components = data[pos + 9];
+      if (components < 3 || len < 8 + 3 * components) return std::nullopt;
+      const int yh = data[pos + 11] >> 4, yv = data[pos + 11] & 0x0F;
+      const int ch = data[pos + 14] >> 4, cv = data[pos + 14] & 0x0F;
+      if (ch == 0 || cv == 0) return std::nullopt;
+      const int rh = yh / ch, rv = yv / cv;  // how many luminance samples per chrominance sample
+      if (rh <= 1 && rv <= 1) return JpegSubsampling::S444;
+      if (rh * rv == 2) return JpegSubsampling::S422;
+      return JpegSubsampling::S420;
+    }
+    pos += 2 + len;
+  }
+  return std::nullopt;
+}
+
+std::optional<JpegSubsampling> read_jpeg_subsampling_of_file(const std::string& path) {
+  const std::vector<uint8_t> head = file_head(path);
+  return read_jpeg_subsampling(head.data(), head.size());
 }
 
 }  // namespace texdefrag

@@ -74,7 +74,10 @@ PageEncoding page_encoding_of_file(const std::string& path) {
   std::vector<char> head(16);
   in.read(head.data(), static_cast<std::streamsize>(head.size()));
   enc.format = sniff_image_format(reinterpret_cast<const uint8_t*>(head.data()), static_cast<size_t>(in.gcount()), path);
-  if (enc.format == "jpeg") enc.jpeg_quality = estimate_jpeg_quality_of_file(path);
+  if (enc.format == "jpeg") {
+    enc.jpeg_quality = estimate_jpeg_quality_of_file(path);
+    enc.jpeg_subsampling = read_jpeg_subsampling_of_file(path);
+  }
   return enc;
 }
 
@@ -82,15 +85,30 @@ PageEncoding page_encoding_of_file(const std::string& path) {
 
 namespace texdefrag {
 
+namespace {
+
+/// "4:4:4" / "4:2:2" / "4:2:0" -> the enum; empty for anything else.
+std::optional<JpegSubsampling> parse_subsampling(const std::string& name) {
+  for (JpegSubsampling s : {JpegSubsampling::S444, JpegSubsampling::S422, JpegSubsampling::S420})
+    if (name == jpeg_subsampling_name(s)) return s;
+  return std::nullopt;
+}
+
+}  // namespace
+
 PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& image_format, int jpeg_quality,
-                                     bool match_input_quality) {
+                                     bool match_input_quality, const std::string& jpeg_subsampling) {
   if (image_format != "input" && image_format != "png" && image_format != "jpeg")
     throw FormatError("output.image_format: '" + image_format + "' is not one of input, png, jpeg");
+  const std::optional<JpegSubsampling> forced = parse_subsampling(jpeg_subsampling);
+  if (!forced && jpeg_subsampling != "input")
+    throw FormatError("output.jpeg_subsampling: '" + jpeg_subsampling + "' is not one of input, 4:4:4, 4:2:2, 4:2:0");
   std::vector<uint8_t> used(in.mesh.pages.size(), 0);
   for (const Face& f : in.mesh.faces)
     if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
   size_t textured_pages = 0, jpeg_pages = 0;
   std::optional<int> quality;
+  std::optional<JpegSubsampling> finest;  // the enum is ordered finest first
   for (size_t p = 0; p < used.size(); ++p) {
     if (!used[p]) continue;
     ++textured_pages;
@@ -98,11 +116,13 @@ PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& i
     if (!e || e->format != "jpeg") continue;
     ++jpeg_pages;
     if (e->jpeg_quality) quality = std::max(quality.value_or(1), *e->jpeg_quality);
+    if (e->jpeg_subsampling) finest = std::min(finest.value_or(JpegSubsampling::S420), *e->jpeg_subsampling);
   }
   const bool all_jpeg = textured_pages > 0 && jpeg_pages == textured_pages;
   PageWriteOptions o;
   o.format = image_format == "jpeg" || (image_format == "input" && all_jpeg) ? ImageFormat::Jpeg : ImageFormat::Png;
   o.jpeg_quality = match_input_quality && quality ? *quality : jpeg_quality;
+  o.jpeg_subsampling = forced ? *forced : finest.value_or(JpegSubsampling::S444);
   return o;
 }
 

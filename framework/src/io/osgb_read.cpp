@@ -206,7 +206,10 @@ std::vector<PageEncoding> embedded_streams(const std::string& path) {
     PageEncoding e;
     e.format = jpeg ? "jpeg" : "png";
     e.bytes = n;
-    if (jpeg) e.jpeg_quality = estimate_jpeg_quality(b + i, n);
+    if (jpeg) {
+      e.jpeg_quality = estimate_jpeg_quality(b + i, n);
+      e.jpeg_subsampling = read_jpeg_subsampling(b + i, n);
+    }
     out.push_back(e);
     i += n - 1;
   }
@@ -337,10 +340,16 @@ void match_streams(const std::string& path, LoadedModel& m) {
     return;
   }
   std::optional<int> q;
-  for (const PageEncoding& e : streams)
+  std::optional<JpegSubsampling> s;
+  for (const PageEncoding& e : streams) {
     if (e.jpeg_quality) q = std::max(q.value_or(1), *e.jpeg_quality);
+    if (e.jpeg_subsampling) s = std::min(s.value_or(JpegSubsampling::S420), *e.jpeg_subsampling);
+  }
   for (PageEncoding& e : m.page_encodings)
-    if (e.format == "jpeg") e.jpeg_quality = q;
+    if (e.format == "jpeg") {
+      e.jpeg_quality = q;
+      e.jpeg_subsampling = s;
+    }
 }
 
 }  // namespace

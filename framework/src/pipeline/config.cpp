@@ -68,6 +68,8 @@ const StageInfo& writer_stage_info() {
        opt_int("jpeg_quality", 95, "JPEG quality of JPEG pages when no input quality is matched").range(1, 100),
        opt_bool("match_input_quality", true,
                 "JPEG pages take the quality estimated from the input JPEG pages' quantisation tables"),
+       opt_enum("jpeg_subsampling", "4:4:4", {"4:4:4", "4:2:2", "4:2:0", "input"},
+                "Chroma subsampling of JPEG pages; 'input': the finest of the input JPEG pages' (4:4:4 when unknown)"),
        opt_string("name", "", "Output file stem; empty keeps the input's stem"),
        opt_bool("write_report", true, "Write <stem>.report.json beside the output"),
        opt_enum("draco", "none", {"none", "lossless", "quantized"},

@@ -482,7 +482,8 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     timed(report, "write", [&](json& node) {
       PageWriteOptions po = choose_page_options(model, config.output.get_string("image_format"),
                                                 static_cast<int>(config.output.get_int("jpeg_quality")),
-                                                config.output.get_bool("match_input_quality"));
+                                                config.output.get_bool("match_input_quality"),
+                                                config.output.get_string("jpeg_subsampling"));
       po.output_options = config.output.values();
       const std::string ext = po.format == ImageFormat::Jpeg ? "jpg" : "png";
       TexturedMesh out = make_output_mesh(mesh, ctx.atlas, ctx.layout, stem, ext, options.output_dir);
@@ -490,7 +491,10 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
                                            : format.write(model, out, out_pages, stem, po, *outputs);
       node["format"] = format.name();
       node["image_format"] = ext == "jpg" ? "jpeg" : "png";
-      if (po.format == ImageFormat::Jpeg) node["jpeg_quality"] = po.jpeg_quality;
+      if (po.format == ImageFormat::Jpeg) {
+        node["jpeg_quality"] = po.jpeg_quality;
+        node["jpeg_subsampling"] = jpeg_subsampling_name(po.jpeg_subsampling);
+      }
       node["file"] = wr.main_file;
       node["page_bytes"] = wr.page_bytes;
       size_t in_bytes = 0;

@@ -4,6 +4,8 @@
 #include "texdefrag/io/model_format.h"
 #include "texdefrag/io/obj.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <filesystem>
 #include <map>
@@ -121,17 +123,18 @@ json task_row(const ProductionTask& t, const json& report) {
           {"copied", false}};
 }
 
-/// Totals of the rows per level (and "all").
+/// Totals of the rows per level (and "all"); failed tasks are counted, not summed.
 json level_totals(const json& rows) {
   std::map<std::string, json> by;
   for (const json& r : rows) {
     for (const std::string& key : {r["level"].get<std::string>(), std::string("all")}) {
       json& t = by[key];
       if (t.is_null())
-        t = {{"tasks", 0}, {"faces", 0}, {"charts_in", 0}, {"charts_out", 0}, {"megapixels_in", 0.0},
+        t = {{"tasks", 0}, {"failed", 0}, {"faces", 0}, {"charts_in", 0}, {"charts_out", 0}, {"megapixels_in", 0.0},
              {"megapixels_out", 0.0}, {"page_bytes_in", 0}, {"page_bytes_out", 0}, {"time_s", 0.0}};
       t["tasks"] = t["tasks"].get<long>() + 1;
-      if (r["copied"].get<bool>()) continue;
+      if (r["status"] == "failed") t["failed"] = t["failed"].get<long>() + 1;
+      if (r["status"] == "failed" || r["copied"].get<bool>()) continue;
       for (const char* k : {"faces", "charts_in", "charts_out", "page_bytes_in", "page_bytes_out"})
         t[k] = t[k].get<long>() + r[k].get<long>();
       for (const char* k : {"megapixels_in", "megapixels_out", "time_s"}) t[k] = t[k].get<double>() + r[k].get<double>();
@@ -142,11 +145,43 @@ json level_totals(const json& rows) {
   return out;
 }
 
+/// Copies `from` to `to` under a temporary name in to's folder, then renames it: `to` is never
+/// partly written. Throws FormatError naming both files.
 void copy_into(const std::string& from, const std::string& to) {
-  fs::create_directories(fs::path(to).parent_path());
   std::error_code ec;
-  fs::copy_file(from, to, fs::copy_options::overwrite_existing, ec);
-  if (ec) throw FormatError(to + ": cannot copy " + from + " there: " + ec.message());
+  fs::create_directories(fs::path(to).parent_path(), ec);
+  const fs::path tmp = fs::path(to).parent_path() / ("." + fs::path(to).filename().string() + ".tmp-" +
+                                                     std::to_string(::getpid()));
+  if (!ec) fs::copy_file(from, tmp, fs::copy_options::overwrite_existing, ec);
+  if (!ec) fs::rename(tmp, to, ec);
+  if (ec) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw FormatError(to + ": cannot copy " + from + " there: " + ec.message());
+  }
+}
+
+/// Runs one task: a tile with no textured face is copied, any other runs the pipeline. Returns
+/// its summary row (status "ok"); throws what the reader or the pipeline threw.
+json run_task(const PipelineConfig& config, const ProductionTask& t, const ProductionRunOptions& options, json& report) {
+  const ModelFormat& format = format_for_input(t.input);
+  auto probe = std::make_shared<LoadedModel>(format.read(t.input));
+  if (textured_faces(probe->mesh) == 0) {
+    copy_into(t.input, (fs::path(t.output_dir) / fs::path(t.input).filename()).string());
+    return {{"relative", t.relative}, {"level", t.level}, {"status", "ok"}, {"copied", true},
+            {"faces", probe->mesh.faces.size()}};
+  }
+  RunOptions ro;
+  ro.input = t.input;
+  ro.output_dir = t.output_dir;
+  ro.progress = options.progress;
+  ro.allow_missing_children = options.allow_missing_children;
+  ro.model = std::move(probe);  // read once: the pipeline takes the model read here
+  ro.format = &format;
+  report = run_pipeline(config, ro);
+  json row = task_row(t, report);
+  row["status"] = "ok";
+  return row;
 }
 
 }  // namespace
@@ -159,32 +194,23 @@ json run_production(const PipelineConfig& config, const Production& production, 
   if (!config.output.get_string("name").empty())
     throw ConfigError({"output.name: a production keeps each tile's own file name; leave output.name empty"});
   json rows = json::array();
+  size_t failed = 0;
   for (size_t i = 0; i < production.tasks.size(); ++i) {
     const ProductionTask& t = production.tasks[i];
     if (t.output_dir.empty()) throw FormatError(t.input + ": task without output folder");
-    json row;
+    json row, report;
     try {
-      const ModelFormat& format = format_for_input(t.input);
-      const LoadedModel probe = format.read(t.input);
-      if (textured_faces(probe.mesh) == 0) {
-        copy_into(t.input, (fs::path(t.output_dir) / fs::path(t.input).filename()).string());
-        row = {{"relative", t.relative}, {"level", t.level}, {"copied", true}, {"faces", probe.mesh.faces.size()}};
-      } else {
-        RunOptions ro;
-        ro.input = t.input;
-        ro.output_dir = t.output_dir;
-        ro.progress = options.progress;
-        ro.allow_missing_children = options.allow_missing_children;
-        const json report = run_pipeline(config, ro);
-        row = task_row(t, report);
-        if (options.on_task) options.on_task(i, t, report);
-      }
+      row = run_task(config, t, options, report);
     } catch (const ConfigError&) {
-      throw;
+      throw;  // the configuration is wrong for every tile: nothing to go on with
     } catch (const std::exception& e) {
-      throw FormatError("production task " + std::to_string(i + 1) + "/" + std::to_string(production.tasks.size()) +
-                        " (" + t.relative + "): " + e.what());
+      // note: the tile's OutputSet was not committed, so none of its files appeared; the others go on.
+      ++failed;
+      row = {{"relative", t.relative}, {"level", t.level}, {"status", "failed"}, {"copied", false},
+             {"error", "production task " + std::to_string(i + 1) + "/" + std::to_string(production.tasks.size()) +
+                           " (" + t.relative + "): " + e.what()}};
     }
+    if (options.on_task) options.on_task(i, t, row, report);
     rows.push_back(row);
   }
   for (const std::string& c : production.copies)
@@ -194,6 +220,7 @@ json run_production(const PipelineConfig& config, const Production& production, 
                   {"kind", production.kind},
                   {"config", config.effective},
                   {"copied", production.copies},
+                  {"failed", failed},
                   {"tasks", rows},
                   {"levels", level_totals(rows)}};
   write_file_atomic((fs::path(options.output_dir) / "texdefrag_summary.json").string(), summary.dump(2) + "\n");

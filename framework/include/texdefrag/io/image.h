@@ -32,11 +32,21 @@ void read_image_size(const std::string& path, int& width, int& height);
 
 enum class ImageFormat { Png, Jpeg };
 
+/// JPEG chroma subsampling (horizontal:vertical sampling of Cb/Cr against Y). S444 keeps every
+/// colour sample; S420 (libjpeg's default) halves both directions.
+enum class JpegSubsampling { S444, S422, S420 };
+
+/// "4:4:4", "4:2:2", "4:2:0" (the names of OpenImageIO's "jpeg:subsampling" attribute).
+const char* jpeg_subsampling_name(JpegSubsampling s);
+
 /// Writes an image atomically (temporary file, then rename). jpeg_quality in [1, 100].
 /// path: must end in .png for Png, .jpg/.jpeg for Jpeg (else ImageError); its folder must exist.
 /// image: 1-4 channels, pixels.size() == width*height*channels (else ImageError). JPEG stores 1 or
 ///        3 channels: the alpha of a 2- or 4-channel image is left out. PNG round-trips exactly.
+/// subsampling: chroma subsampling of a 3-channel JPEG (ignored for PNG and grey JPEG); the default
+///        is libjpeg's own (4:2:0); the pipeline's pages pass output.jpeg_subsampling (4:4:4).
 /// Throws ImageError naming `path`; on failure no file and no temporary is left.
-void write_image(const std::string& path, const Image& image, ImageFormat format, int jpeg_quality = 95);
+void write_image(const std::string& path, const Image& image, ImageFormat format, int jpeg_quality = 95,
+                 JpegSubsampling subsampling = JpegSubsampling::S420);
 
 }  // namespace texdefrag

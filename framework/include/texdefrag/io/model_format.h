@@ -47,6 +47,8 @@ struct PageEncoding {
   std::optional<int> jpeg_quality;
   /// Bytes of the encoded image (file size, or embedded stream size); 0 when unknown.
   size_t bytes = 0;
+  /// Chroma subsampling from the JPEG frame header; empty when not JPEG, grey or unknown.
+  std::optional<JpegSubsampling> jpeg_subsampling;
 };
 
 /// Format-specific state kept between read and write (the scene graph, face -> primitive maps).
@@ -83,6 +85,7 @@ struct LoadedModel {
 struct PageWriteOptions {
   ImageFormat format = ImageFormat::Png;
   int jpeg_quality = 95;  ///< [1, 100], used for Jpeg
+  JpegSubsampling jpeg_subsampling = JpegSubsampling::S444;  ///< used for Jpeg
   /// The validated `output` section of the configuration, for format-specific keys (e.g. the glTF
   /// writer's output.draco); empty object when not given.
   json output_options = json::object();
@@ -138,7 +141,8 @@ std::string lower_extension(const std::string& path);
 /// extension of `name` ("jpg" read as "jpeg"). data/size: the first bytes (8 are enough).
 std::string sniff_image_format(const uint8_t* data, size_t size, const std::string& name);
 
-/// The page encoding a file on disk has (format from its first bytes, JPEG quality from its DQT).
+/// The page encoding a file on disk has (format from its first bytes, JPEG quality from its DQT,
+/// chroma subsampling from its SOF).
 PageEncoding page_encoding_of_file(const std::string& path);
 
 /// The output page encoding for `in` (docs/io.md "Page format").
@@ -147,7 +151,10 @@ PageEncoding page_encoding_of_file(const std::string& path);
 /// jpeg_quality: [1, 100], the quality of JPEG pages when match_input_quality is false or no input
 ///   page has an estimated quality; otherwise the largest estimated quality of the textured input
 ///   JPEG pages (so no page is written at a lower quality than it was read).
+/// jpeg_subsampling: "4:4:4", "4:2:2" or "4:2:0" force the chroma subsampling of JPEG pages;
+///   "input" takes the finest subsampling of the textured input JPEG pages (4:4:4 when none is
+///   known). Anything else is a FormatError.
 PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& image_format, int jpeg_quality,
-                                     bool match_input_quality);
+                                     bool match_input_quality, const std::string& jpeg_subsampling = "4:4:4");
 
 }  // namespace texdefrag

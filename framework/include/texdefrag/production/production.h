@@ -52,13 +52,18 @@ struct ProductionRunOptions {
   std::string output_dir;               ///< must not be the production folder or inside it
   ProgressFn progress;                  ///< forwarded to each tile's run; may be empty
   bool allow_missing_children = false;  ///< see RunOptions
-  /// Called after each task with its index, task and report (e.g. to print a line); may be empty.
-  std::function<void(size_t, const ProductionTask&, const json&)> on_task;
+  /// Called after each task with its index, task, summary row (status "ok" or "failed" with its
+  /// error) and run report (null when the tile was copied or failed), e.g. to print a line; may be empty.
+  std::function<void(size_t, const ProductionTask&, const json& row, const json& report)> on_task;
 };
 
 /// Runs every task in order with `config` (a tile with no textured face is copied unchanged),
-/// copies the other files, and writes OUT/texdefrag_summary.json. Stops at the first failing
-/// task, rethrowing its error prefixed with the task's file. Returns the summary.
+/// copies the other files, and writes OUT/texdefrag_summary.json. A failing task (unreadable tile,
+/// missing PagedLOD child, a stage's error) leaves none of its files (its OutputSet is not
+/// committed) and is recorded in the summary with status "failed" and its error
+/// ("production task I/N (RELATIVE): <error naming the file>"); the other tasks go on. The
+/// summary's "failed" counts them. A ConfigError (the configuration itself) is rethrown at once.
+/// Returns the summary.
 json run_production(const PipelineConfig& config, const Production& production, const ProductionRunOptions& options);
 
 }  // namespace texdefrag
