@@ -10,6 +10,7 @@
 #include "commands.h"
 
 #include "texdefrag/io/model_format.h"
+#include "texdefrag/io/tiles3d.h"
 #include "texdefrag/production/production.h"
 #include "texdefrag/util/paths.h"
 
@@ -25,6 +26,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -108,6 +110,44 @@ json folder_tasks(const fs::path& root, const fs::path& exclude) {
   return tasks;
 }
 
+/// A 3D Tiles tileset (io/tiles3d.h): one task per model (the contents sharing an atlas stay one
+/// task), run as `texdefrag run TILESET --contents C...`; outputs keep their paths relative to the
+/// tileset's folder (output_dir "."). The tileset JSONs and the other contents are written by
+/// `finish` once every task is finished (their 3DTILES_content_gltf lists depend on the outputs).
+json tileset_tasks(const fs::path& tileset) {
+  const TilesetPlan plan = plan_tileset(tileset.string());
+  const fs::path root = normal_absolute(tileset.parent_path().empty() ? fs::path(".") : tileset.parent_path());
+  json out = {{"input", normal_absolute(tileset).string()}, {"root", root.string()}, {"kind", "tileset"},
+              {"copies", json::array()}, {"tasks", json::array()},
+              {"finish", {"tasks", normal_absolute(tileset).string(), "--finish"}}};
+  std::set<std::string> ids;
+  for (const TilesetModel& m : plan.models) {
+    const fs::path first(m.contents.front());
+    std::string id = (first.parent_path() / first.stem()).generic_string();
+    if (!ids.insert(id).second) id = first.generic_string();  // a.glb and a.b3dm side by side
+    ids.insert(id);
+    json args = json::array();
+    for (const std::string& c : m.contents) {
+      args.push_back("--contents");
+      args.push_back(c);
+    }
+    json files = json::array({normal_absolute(tileset).string()});
+    for (const std::string& f : m.files) files.push_back(f);
+    const std::string dir = first.parent_path().generic_string();
+    out["tasks"].push_back({{"id", id},
+                            {"input", normal_absolute(tileset).string()},
+                            {"output_dir", "."},
+                            {"stem", (first.parent_path() / first.stem()).generic_string()},
+                            {"tile", dir.empty() ? id : dir},
+                            {"level", level_of(first.stem().string())},
+                            {"contents", m.contents},
+                            {"args", args},
+                            {"files", files}});
+  }
+  if (out["tasks"].empty()) throw std::runtime_error(tileset.string() + ": the tileset has no glTF or b3dm content");
+  return out;
+}
+
 }  // namespace
 
 /// The task list of a production (docs/batch.md, "Tasks"): {"input", "root", "kind", "tasks",
@@ -121,6 +161,9 @@ json production_tasks(const std::string& input, const std::string& exclude) {
   const auto st = fs::status(in, ec);
   if (ec || !fs::exists(st)) throw std::runtime_error(input + ": no such file or folder");
   json out = {{"input", normal_absolute(in).string()}, {"copies", json::array()}};
+  if (fs::is_regular_file(st) && is_tileset(input)) return tileset_tasks(in);
+  if (fs::is_directory(st) && !fs::exists(in / "metadata.xml", ec) && is_tileset((in / "tileset.json").string()))
+    return tileset_tasks(in / "tileset.json");
   if (fs::is_regular_file(st)) {
     if (!is_model(in))
       throw std::runtime_error(input + ": not a production nor a model file (formats: " + format_names() + ")");
@@ -155,7 +198,7 @@ json production_tasks(const std::string& input, const std::string& exclude) {
 
 CLI::App* add_tasks_command(CLI::App& app, int& exit_code) {
   struct Args {
-    std::string input, exclude;
+    std::string input, exclude, finish;
     bool json = false;
   };
   auto args = std::make_shared<Args>();
@@ -163,8 +206,17 @@ CLI::App* add_tasks_command(CLI::App& app, int& exit_code) {
   sub->add_option("input", args->input, "Production: a folder of model files (OBJ tiles...) or one model file")->required();
   sub->add_option("--exclude", args->exclude, "A folder whose files are never tasks (the batch output)");
   sub->add_flag("--json", args->json, "JSON output (the batch driver's input; docs/batch.md)");
+  sub->add_option("--finish", args->finish,
+                  "Tileset input: write the tileset JSONs and pass-through contents into this output folder, "
+                  "once every task's outputs are there (the batch's last step)");
   sub->callback([args, &exit_code] {
     try {
+      if (!args->finish.empty()) {
+        if (!is_tileset(args->input)) throw std::runtime_error(args->input + ": --finish applies to a tileset JSON");
+        for (const std::string& f : finish_tileset(args->input, args->finish)) std::cout << f << "\n";
+        exit_code = 0;
+        return;
+      }
       const json t = production_tasks(args->input, args->exclude);
       if (args->json) {
         std::cout << t.dump(1) << "\n";

@@ -4,14 +4,21 @@
 // production/production.h.
 #include "commands.h"
 
+#include "texdefrag/io/tiles3d.h"
 #include "texdefrag/production/production.h"
 
 #include <cstdio>
+#include <filesystem>
 
 namespace texdefrag::cli {
 
 int run_production_command(const PipelineConfig& config, const std::string& input, const std::string& output_dir,
                            bool allow_missing_children, bool quiet, const ProgressFn& progress) {
+  // A folder holding a tileset.json (and no metadata.xml) is that tileset (as for `texdefrag tasks`).
+  const std::filesystem::path tileset = std::filesystem::path(input) / "tileset.json";
+  std::error_code ec;
+  if (!std::filesystem::exists(std::filesystem::path(input) / "metadata.xml", ec) && is_tileset(tileset.string()))
+    return run_tileset_cli(config, tileset.string(), output_dir, progress, quiet, false);
   const Production p = list_production(input, output_dir);
   ProductionRunOptions ro;
   ro.output_dir = output_dir;

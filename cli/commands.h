@@ -18,8 +18,11 @@ CLI::App* add_tasks_command(CLI::App& app, int& exit_code);  // cmd_batch.cpp: t
 CLI::App* add_batch_command(CLI::App& app, int& exit_code);  // cmd_batch.cpp: execs tools/batch/texdefrag_batch
 CLI::App* add_report_command(CLI::App& app, int& exit_code); // cmd_report.cpp (eval/report)
 /// `run` on a 3D Tiles tileset JSON (cli/run_tileset.cpp). Returns the exit code.
+/// contents: empty for the whole tileset, else one model's contents (TilesetRunOptions::contents);
+/// then print_summary prints that model's run report (as `run --report` on a model file).
 int run_tileset_cli(const PipelineConfig& config, const std::string& tileset, const std::string& output_dir,
-                    const ProgressFn& progress, bool quiet, bool print_summary);
+                    const ProgressFn& progress, bool quiet, bool print_summary,
+                    const std::vector<std::string>& contents = {});
 CLI::App* add_configs_command(CLI::App& app, int& exit_code);  // cmd_configs.cpp
 
 /// `texdefrag --version`: version, source revision, compiler, formats and optional features

@@ -121,6 +121,9 @@ int main(int argc, char** argv) {
   bool allow_missing = false;
   run->add_flag("--allow-missing-children", allow_missing,
                 "Process models whose referenced child files (OSGB PagedLOD levels) are missing; listed in the report");
+  std::vector<std::string> contents;
+  run->add_option("--contents", contents,
+                  "Tileset input: only the model holding these contents (relative names; texdefrag batch's tasks)");
   run->callback([&] {
     exit_code = guarded([&] {
       set_thread_count(threads);
@@ -131,7 +134,9 @@ int main(int argc, char** argv) {
       }
       if (is_production(input))
         return cli::run_production_command(cfg, input, output_dir, allow_missing, quiet, make_progress(quiet));
-      if (is_tileset(input)) return cli::run_tileset_cli(cfg, input, output_dir, make_progress(quiet), quiet, print_report);
+      if (is_tileset(input))
+        return cli::run_tileset_cli(cfg, input, output_dir, make_progress(quiet), quiet, print_report, contents);
+      if (!contents.empty()) throw std::runtime_error("--contents applies to a tileset JSON input, not to " + input);
       RunOptions ro;
       ro.input = input;
       ro.output_dir = output_dir;

@@ -10,13 +10,19 @@
 namespace texdefrag::cli {
 
 int run_tileset_cli(const PipelineConfig& config, const std::string& tileset, const std::string& output_dir,
-                    const ProgressFn& progress, bool quiet, bool print_summary) {
+                    const ProgressFn& progress, bool quiet, bool print_summary,
+                    const std::vector<std::string>& contents) {
   TilesetRunOptions o;
   o.tileset = tileset;
   o.output_dir = output_dir;
   o.progress = progress;
+  o.contents = contents;
   const json summary = run_tileset(config, o);
-  if (print_summary) std::cout << summary.dump(2) << "\n";
+  if (print_summary) {
+    // One model (a batch task): its run report, as for a model file; else the tileset's summary.
+    const bool one = summary.contains("reports") && summary["reports"].size() == 1;
+    std::cout << (one ? summary["reports"][0] : summary).dump(2) << "\n";
+  }
   if (!quiet) {
     size_t cin = 0, cout_ = 0;
     for (const auto& m : summary["models"]) {

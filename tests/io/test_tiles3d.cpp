@@ -8,6 +8,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <functional>
+#include <map>
+
 namespace fs = std::filesystem;
 using namespace texdefrag;
 using namespace texdefrag::gltf_test;
@@ -173,4 +176,106 @@ TEST(Tiles3d, OutputInsideTheInputProductionIsRefused) {
   o.output_dir = dir + "/in/out";
   EXPECT_ANY_THROW(run_tileset(repack(), o));
   EXPECT_FALSE(fs::exists(dir + "/in/out/tileset.json"));
+}
+
+namespace {
+
+/// build_tileset plus a level sharing one atlas: shared/s0.glb and shared/s1.glb name the external
+/// image shared/atlas.png (each in its own half of it), as Matterport tilesets do.
+std::string build_shared_tileset(const std::string& dir) {
+  const std::string ts = build_tileset(dir);
+  const std::vector<uint8_t> png = png_bytes(dir, 32, 32);
+  put_file(dir + "/in/shared/atlas.png", std::string(png.begin(), png.end()));
+  ojson j = ojson::parse(file_bytes(ts));
+  for (int k = 0; k < 2; ++k) {
+    GridData g = grid(2, 2, 3.0f + static_cast<float>(k));
+    for (size_t i = 0; i < g.uv.size(); i += 2) g.uv[i] = 0.5f * g.uv[i] + 0.5f * static_cast<float>(k);
+    tinygltf::Model m = base_model();
+    m.nodes[0].matrix.clear();
+    m.meshes[0].primitives.push_back(add_primitive(m, g, add_textured_material(m, {}, "atlas.png")));
+    save(m, dir + "/in/shared/s" + std::to_string(k) + ".glb");
+    j["root"]["children"].push_back({{"boundingVolume", box_for(2, 3.0f + static_cast<float>(k))},
+                                     {"geometricError", 1},
+                                     {"content", {{"uri", "shared/s" + std::to_string(k) + ".glb"}}}});
+  }
+  put_file(ts, j.dump(2));
+  return ts;
+}
+
+/// {relative path: bytes} of every file under `dir` except run reports and summaries (they hold times).
+std::map<std::string, std::vector<uint8_t>> output_files(const std::string& dir) {
+  std::map<std::string, std::vector<uint8_t>> out;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (!e.is_regular_file() || name.find(".report.json") != std::string::npos ||
+        name.find(".summary.json") != std::string::npos || name.front() == '.')
+      continue;
+    out[fs::relative(e.path(), dir).generic_string()] = file_bytes(e.path().string());
+  }
+  return out;
+}
+
+std::string error_of(const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected an error";
+  return "";
+}
+
+}  // namespace
+
+// The batch form of a tileset production: plan_tileset's models (contents sharing an atlas stay
+// one model), each run alone (TilesetRunOptions::contents), then finish_tileset: the same files as
+// one whole run.
+TEST(Tiles3d, ModelsRunOneByOneThenFinishedEqualTheWholeRun) {
+  const std::string dir = temp_dir();
+  const std::string in = build_shared_tileset(dir);
+  const TilesetPlan plan = plan_tileset(in);
+  ASSERT_EQ(plan.models.size(), 4u);
+  EXPECT_EQ(plan.models[0].contents, std::vector<std::string>{"tiles/a.b3dm"});
+  EXPECT_EQ(plan.models[3].contents, (std::vector<std::string>{"shared/s0.glb", "shared/s1.glb"}));
+  EXPECT_EQ(plan.models[3].files, (std::vector<std::string>{dir + "/in/shared/s0.glb", dir + "/in/shared/s1.glb",
+                                                            dir + "/in/shared/atlas.png"}));
+  EXPECT_EQ(plan.models[3].parent, in);
+  EXPECT_TRUE(plan.copies.empty());
+
+  TilesetRunOptions whole;
+  whole.tileset = in;
+  whole.output_dir = dir + "/whole";
+  run_tileset(repack(), whole);
+
+  const std::string out = dir + "/parts";
+  TilesetRunOptions o;
+  o.tileset = in;
+  o.output_dir = out;
+  // Half of a shared atlas, or a name that is no content: errors naming the tileset, nothing written.
+  o.contents = {"shared/s1.glb"};
+  std::string e = error_of([&] { run_tileset(repack(), o); });
+  EXPECT_NE(e.find(in + ": contents shared/s0.glb, shared/s1.glb share an atlas"), std::string::npos) << e;
+  o.contents = {"tiles/nope.glb"};
+  e = error_of([&] { run_tileset(repack(), o); });
+  EXPECT_NE(e.find("'tiles/nope.glb' is not a glTF or b3dm content"), std::string::npos) << e;
+  EXPECT_FALSE(fs::exists(out + "/tileset.json"));
+  for (size_t m = 0; m < plan.models.size(); ++m) {
+    o.contents = plan.models[m].contents;
+    const nlohmann::json s = run_tileset(repack(), o);
+    ASSERT_EQ(s["reports"].size(), 1u);
+    EXPECT_EQ(s["reports"][0]["input_stats"]["faces"], s["models"][0]["faces"]);
+    EXPECT_FALSE(fs::exists(out + "/tileset.json"));  // only finish writes the tileset JSONs
+    if (m == 0) {
+      e = error_of([&] { finish_tileset(in, out); });
+      EXPECT_NE(e.find(out + "/tiles/b.glb: output of content tiles/b.glb (named by " + in + ") is missing"),
+                std::string::npos)
+          << e;
+    }
+  }
+  EXPECT_TRUE(fs::exists(out + "/shared/s0.report.json"));
+  const std::vector<std::string> written = finish_tileset(in, out);
+  EXPECT_EQ(written, (std::vector<std::string>{"tileset.json", "sub/ext.json"}));
+  EXPECT_EQ(output_files(out), output_files(dir + "/whole"));
+  EXPECT_EQ(compare_tilesets(in, out + "/tileset.json"), std::vector<std::string>{});
+  EXPECT_EQ(check_tileset(out + "/tileset.json"), std::vector<std::string>{});
 }

@@ -594,19 +594,28 @@ void add_faces(GltfModel& model, int file, Primitive& P, int material) {
 
 }  // namespace
 
-std::vector<std::vector<size_t>> gltf_shared_image_groups(const std::vector<GltfInput>& inputs) {
+std::vector<std::vector<size_t>> gltf_shared_image_groups(const std::vector<GltfInput>& inputs,
+                                                          std::vector<std::vector<std::string>>* image_files,
+                                                          std::vector<std::string>* unreadable) {
+  if (image_files) image_files->assign(inputs.size(), {});
   std::vector<size_t> parent(inputs.size());
   for (size_t i = 0; i < parent.size(); ++i) parent[i] = i;
   std::function<size_t(size_t)> find = [&](size_t i) { return parent[i] == i ? i : parent[i] = find(parent[i]); };
   std::map<std::string, size_t> owner;  // image path -> first document naming it
   for (size_t i = 0; i < inputs.size(); ++i) {
     const GltfInput& in = inputs[i];
-    const std::vector<uint8_t> bytes = in.bytes.empty() ? read_file_bytes(in.path, "glTF file") : in.bytes;
     ojson j;
     try {
-      j = ojson::parse(is_glb(bytes) ? check_glb(bytes, in.path) : std::string(bytes.begin(), bytes.end()));
-    } catch (const nlohmann::json::exception& e) {
-      throw GltfError(in.path + ": glTF JSON: " + e.what());
+      const std::vector<uint8_t> bytes = in.bytes.empty() ? read_file_bytes(in.path, "glTF file") : in.bytes;
+      try {
+        j = ojson::parse(is_glb(bytes) ? check_glb(bytes, in.path) : std::string(bytes.begin(), bytes.end()));
+      } catch (const nlohmann::json::exception& e) {
+        throw GltfError(in.path + ": glTF JSON: " + e.what());
+      }
+    } catch (const std::exception& e) {
+      if (!unreadable) throw;
+      unreadable->push_back(e.what());
+      continue;  // a group of its own
     }
     const fs::path base = !in.base_dir.empty() ? fs::path(in.base_dir) : fs::path(in.path).parent_path();
     if (!j.is_object() || !j.contains("images") || !j["images"].is_array()) continue;
@@ -617,6 +626,17 @@ std::vector<std::vector<size_t>> gltf_shared_image_groups(const std::vector<Gltf
       const std::string key = (base / url_decode(uri)).lexically_normal().string();
       auto it = owner.emplace(key, i).first;
       parent[find(i)] = find(it->second);
+      if (image_files) {
+        std::vector<fs::path> candidates = {key};
+        if (img.contains("name") && img["name"].is_string()) candidates.push_back(base / img["name"].get<std::string>());
+        for (const char* e : {".jpg", ".jpeg", ".png"}) candidates.push_back(fs::path(key).replace_extension(e));
+        std::error_code ec;
+        for (const fs::path& c : candidates) {
+          const std::string f = c.lexically_normal().string();
+          auto& list = (*image_files)[i];
+          if (fs::is_regular_file(f, ec) && std::find(list.begin(), list.end(), f) == list.end()) list.push_back(f);
+        }
+      }
     }
   }
   std::map<size_t, size_t> group_of_root;

@@ -204,48 +204,113 @@ std::string output_tileset_json(const std::string& path, const std::set<std::str
 
 }  // namespace
 
-nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions& options) {
-  const Tileset ts = read_tileset(options.tileset);
-  const fs::path root = fs::absolute(fs::path(options.tileset).parent_path()).lexically_normal();
+TilesetPlan plan_tileset(const std::string& path) {
+  TilesetPlan plan;
+  plan.tileset = read_tileset(path);
+  const fs::path root = fs::absolute(fs::path(path).parent_path()).lexically_normal();
   std::vector<GltfInput> inputs;
   std::vector<const TilesetContent*> input_content;
-  std::map<size_t, B3dm> b3dms;
-  std::vector<const TilesetContent*> others;
-  for (const TilesetContent& c : ts.contents) {
-    const std::string who = c.path + " (named by " + c.tileset + ")";
+  for (const TilesetContent& c : plan.tileset.contents) {
     if (c.kind == "glb" || c.kind == "gltf") {
       inputs.push_back({c.path, {}, ""});
     } else if (c.kind == "b3dm") {
-      B3dm b = parse_b3dm(read_bytes(c.path), who);
-      inputs.push_back({c.path, b.glb, fs::path(c.path).parent_path().string()});
-      b3dms[inputs.size() - 1] = std::move(b);
+      try {
+        B3dm b = parse_b3dm(read_bytes(c.path), c.path + " (named by " + c.tileset + ")");
+        inputs.push_back({c.path, std::move(b.glb), fs::path(c.path).parent_path().string()});
+      } catch (const TilesetError&) {
+        inputs.push_back({c.path, {}, ""});  // unreadable: a model of its own, whose run reports the error
+      }
     } else {
-      others.push_back(&c);
+      plan.copies.push_back(rel_name(c.path, root));
       continue;
     }
     input_content.push_back(&c);
   }
   std::vector<std::vector<size_t>> groups;
+  std::vector<std::vector<std::string>> images;
+  std::vector<std::string> unreadable;  // their models fail when run, naming the file
   try {
-    groups = gltf_shared_image_groups(inputs);
+    groups = gltf_shared_image_groups(inputs, &images, &unreadable);
   } catch (const GltfError& e) {
     throw TilesetError(std::string(e.what()));
   }
+  for (const std::vector<size_t>& g : groups) {
+    TilesetModel m;
+    m.parent = input_content[g.front()]->tileset;
+    for (size_t i : g) {
+      m.contents.push_back(rel_name(inputs[i].path, root));
+      m.files.push_back(fs::absolute(inputs[i].path).lexically_normal().string());
+    }
+    for (size_t i : g)
+      for (const std::string& f : images[i])
+        if (std::find(m.files.begin(), m.files.end(), f) == m.files.end()) m.files.push_back(f);
+    plan.models.push_back(std::move(m));
+  }
+  return plan;
+}
+
+namespace {
+
+/// The models of `plan` that `wanted` selects (all when empty); TilesetError when a name is not a
+/// glTF/b3dm content of the tileset or a model is named only in part.
+std::vector<size_t> selected_models(const TilesetPlan& plan, const std::vector<std::string>& wanted) {
+  std::vector<size_t> out;
+  if (wanted.empty()) {
+    for (size_t m = 0; m < plan.models.size(); ++m) out.push_back(m);
+    return out;
+  }
+  const std::set<std::string> want(wanted.begin(), wanted.end());
+  std::set<std::string> found;
+  for (size_t m = 0; m < plan.models.size(); ++m) {
+    const auto& cs = plan.models[m].contents;
+    const size_t named = static_cast<size_t>(std::count_if(cs.begin(), cs.end(), [&](const std::string& c) { return want.count(c) > 0; }));
+    if (named == 0) continue;
+    if (named != cs.size()) {
+      std::string all;
+      for (const std::string& c : cs) all += (all.empty() ? "" : ", ") + c;
+      throw TilesetError(plan.tileset.path + ": contents " + all + " share an atlas and are one model: name all of them");
+    }
+    found.insert(cs.begin(), cs.end());
+    out.push_back(m);
+  }
+  for (const std::string& w : want)
+    if (!found.count(w)) throw TilesetError(plan.tileset.path + ": '" + w + "' is not a glTF or b3dm content of this tileset");
+  return out;
+}
+
+}  // namespace
+
+nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions& options) {
+  const TilesetPlan plan = plan_tileset(options.tileset);
+  const Tileset& ts = plan.tileset;
+  const fs::path root = fs::absolute(fs::path(options.tileset).parent_path()).lexically_normal();
+  const std::vector<size_t> models = selected_models(plan, options.contents);
+  const bool whole = options.contents.empty();
   // note: the whole input folder is protected: no output may land inside the production read.
   OutputSet files(options.output_dir, {root.string()}, options.tileset);
   const GltfFormat format;
   nlohmann::json summary = {{"tileset", options.tileset}, {"config_origin", config.origin}, {"models", nlohmann::json::array()}};
+  if (!whole) summary["reports"] = nlohmann::json::array();
   std::set<std::string> still_used;
   size_t in_bytes = 0, out_bytes = 0, faces = 0;
-  for (size_t gi = 0; gi < groups.size(); ++gi) {
+  for (size_t k = 0; k < models.size(); ++k) {
+    const TilesetModel& model = plan.models[models[k]];
+    const std::vector<std::string>& names = model.contents;
     std::vector<GltfInput> group;
-    std::vector<std::string> names;
-    for (size_t i : groups[gi]) {
-      group.push_back(inputs[i]);
-      names.push_back(rel_name(inputs[i].path, root));
+    std::vector<const B3dm*> b3dm_of;  // per content: its b3dm tables, or null for glTF/GLB
+    std::vector<B3dm> b3dms(names.size());
+    for (size_t i = 0; i < names.size(); ++i) {
+      const std::string path = (root / names[i]).string();
+      if (lower_ext(path) == "b3dm") {
+        b3dms[i] = parse_b3dm(read_bytes(path), path + " (content of " + model.parent + ")");
+        group.push_back({path, b3dms[i].glb, fs::path(path).parent_path().string()});
+        b3dm_of.push_back(&b3dms[i]);
+      } else {
+        group.push_back({path, {}, ""});
+        b3dm_of.push_back(nullptr);
+      }
     }
-    const std::string parent = input_content[groups[gi].front()]->tileset;
-    if (options.progress) options.progress("tileset " + names.front(), double(gi) / double(groups.size()));
+    if (options.progress) options.progress("tileset " + names.front(), double(k) / double(models.size()));
     RunOptions ro;
     ro.input = group.front().path;
     ro.output_dir = options.output_dir;
@@ -253,7 +318,7 @@ nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions
     try {
       ro.model = std::make_shared<LoadedModel>(format.read_group(group, root.string()));
     } catch (const std::exception& e) {
-      throw TilesetError(std::string(e.what()) + " (content of " + parent + ")");
+      throw TilesetError(std::string(e.what()) + " (content of " + model.parent + ")");
     }
     ro.write = [&](const LoadedModel& lm, const TexturedMesh& out, const std::vector<Image>& pages, const PageWriteOptions& po) {
       const GltfOutput go = format.build(lm, out, pages, names, po);
@@ -262,9 +327,8 @@ nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions
         const std::string& doc = go.documents[i];
         for (const char* e : {"KHR_texture_basisu", "KHR_draco_mesh_compression"})
           if (doc.find(e) != std::string::npos) still_used.insert(e);
-        auto b = b3dms.find(groups[gi][i]);
-        if (b != b3dms.end()) {
-          B3dm nb = b->second;
+        if (b3dm_of[i]) {
+          B3dm nb = *b3dm_of[i];
           nb.glb.assign(doc.begin(), doc.end());
           files.write_file(names[i], write_b3dm(nb));
         } else {
@@ -285,7 +349,7 @@ nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions
     try {
       report = run_pipeline(config, ro);
     } catch (const std::exception& e) {
-      throw TilesetError(names.front() + " (content of " + parent + "): " + e.what());
+      throw TilesetError(names.front() + " (content of " + model.parent + "): " + e.what());
     }
     const std::string report_name = (fs::path(names.front()).parent_path() / (fs::path(names.front()).stem().string() + ".report.json")).generic_string();
     files.write_file(report_name, report.dump(2) + "\n");
@@ -304,25 +368,60 @@ nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions
                                  {"page_bytes_in", pin},
                                  {"page_bytes_out", pout},
                                  {"time_s", report["total_time_s"]}});
+    if (!whole) summary["reports"].push_back(report);
   }
-  summary["copied_unchanged"] = nlohmann::json::array();
-  for (const TilesetContent* c : others) {
-    const std::vector<uint8_t> b = read_bytes(c->path);
-    files.write_file(rel_name(c->path, root), std::string(b.begin(), b.end()));
-    summary["copied_unchanged"].push_back(rel_name(c->path, root));
-  }
-  std::set<std::string> gone;
-  for (const char* e : {"KHR_texture_basisu", "KHR_draco_mesh_compression"})
-    if (!still_used.count(e)) gone.insert(e);
-  for (const std::string& t : ts.tilesets) files.write_file(rel_name(t, root), output_tileset_json(t, gone));
   summary["tilesets"] = ts.tilesets.size();
   summary["contents"] = ts.contents.size();
   summary["faces"] = faces;
   summary["page_bytes_in"] = in_bytes;
   summary["page_bytes_out"] = out_bytes;
-  files.write_file(fs::path(options.tileset).stem().string() + ".summary.json", summary.dump(2) + "\n");
+  if (whole) {
+    summary["copied_unchanged"] = plan.copies;
+    for (const std::string& c : plan.copies) {
+      const std::vector<uint8_t> b = read_bytes((root / c).string());
+      files.write_file(c, std::string(b.begin(), b.end()));
+    }
+    std::set<std::string> gone;
+    for (const char* e : {"KHR_texture_basisu", "KHR_draco_mesh_compression"})
+      if (!still_used.count(e)) gone.insert(e);
+    for (const std::string& t : ts.tilesets) files.write_file(rel_name(t, root), output_tileset_json(t, gone));
+    files.write_file(fs::path(options.tileset).stem().string() + ".summary.json", summary.dump(2) + "\n");
+  }
   files.commit();
   return summary;
+}
+
+std::vector<std::string> finish_tileset(const std::string& tileset, const std::string& output_dir) {
+  const TilesetPlan plan = plan_tileset(tileset);
+  const fs::path root = fs::absolute(fs::path(tileset).parent_path()).lexically_normal();
+  std::set<std::string> still_used;
+  for (const TilesetModel& m : plan.models)
+    for (const std::string& c : m.contents) {
+      const std::string out = (fs::path(output_dir) / c).string();
+      std::error_code ec;
+      if (!fs::is_regular_file(out, ec))
+        throw TilesetError(out + ": output of content " + c + " (named by " + m.parent + ") is missing: run its model first");
+      const std::vector<uint8_t> b = read_bytes(out);
+      const std::string doc(b.begin(), b.end());
+      for (const char* e : {"KHR_texture_basisu", "KHR_draco_mesh_compression"})
+        if (doc.find(e) != std::string::npos) still_used.insert(e);
+    }
+  OutputSet files(output_dir, {root.string()}, tileset);
+  std::vector<std::string> written;
+  for (const std::string& c : plan.copies) {
+    const std::vector<uint8_t> b = read_bytes((root / c).string());
+    files.write_file(c, std::string(b.begin(), b.end()));
+    written.push_back(c);
+  }
+  std::set<std::string> gone;
+  for (const char* e : {"KHR_texture_basisu", "KHR_draco_mesh_compression"})
+    if (!still_used.count(e)) gone.insert(e);
+  for (const std::string& t : plan.tileset.tilesets) {
+    files.write_file(rel_name(t, root), output_tileset_json(t, gone));
+    written.push_back(rel_name(t, root));
+  }
+  files.commit();
+  return written;
 }
 
 }  // namespace texdefrag

@@ -80,8 +80,8 @@ Production list_production(const std::string& input, const std::string& output_d
   }
   if (p.tasks.empty()) {
     if (tileset)
-      throw FormatError(input + ": a 3D Tiles production (tileset.json) is not supported yet; folders of OBJ "
-                        "tiles and ContextCapture OSGB productions (metadata.xml) are");
+      throw FormatError(input + ": a 3D Tiles production (tileset.json) is run by io/tiles3d.h (run_tileset; "
+                        "`texdefrag run` and `texdefrag tasks` take the folder or its tileset JSON), not as a folder of tiles");
     throw FormatError(input + ": no " + task_ext + " tile in this folder" +
                       (cc ? " (a ContextCapture production: metadata.xml with Tile_*/ folders of .osgb or .obj files)"
                           : " (expected .obj tiles, or a metadata.xml and .osgb tiles)"));

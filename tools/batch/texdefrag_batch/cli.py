@@ -17,6 +17,7 @@ import os
 import re
 import shutil
 import socket
+import subprocess
 import sys
 import time
 import uuid
@@ -141,8 +142,9 @@ class Batch:
     # -- run ---------------------------------------------------------------------------------
     def spec(self, t):
         name = f"{self.batch_id}-{safe(t['id'])}-{uuid.uuid4().hex[:8]}"
-        return {"texdefrag": self.exe, "input": t["input"], "config": self.config, "sets": list(self.a.set), "threads": self.a.threads,
-                "staging": os.path.join(self.staging_root, name), "timeout_s": self.a.timeout}
+        return {"texdefrag": self.exe, "input": t["input"], "args": list(t.get("args") or []), "config": self.config,
+                "sets": list(self.a.set), "threads": self.a.threads, "staging": os.path.join(self.staging_root, name),
+                "timeout_s": self.a.timeout}
 
     def make_executor(self):
         if self.a.scheduler:
@@ -197,7 +199,7 @@ class Batch:
         if res["status"] == "ok":
             try:
                 outputs = commit_mod.commit(res["staging"], res["files"], self.out, t["output_dir"],
-                                            os.path.splitext(os.path.basename(t["input"]))[0])
+                                            t.get("stem") or os.path.splitext(os.path.basename(t["input"]))[0])
             except OSError as e:
                 res = dict(res, status="failed", error=f"commit: {e}")
             else:
@@ -242,12 +244,27 @@ class Batch:
                 ok = False
         return ok
 
+    def run_finish(self):
+        """The production's last step (a tileset's JSONs and pass-through contents): `texdefrag
+        FINISH... OUT`, run here once every task is finished; an error fails the batch."""
+        argv = [self.a.texdefrag] + list(self.production["finish"]) + [self.out]
+        p = subprocess.run(argv, capture_output=True, text=True)
+        if p.returncode != 0:
+            err(f"finishing the production failed (`{' '.join(argv)}`, exit code {p.returncode}): {p.stderr.strip()}")
+            return False
+        self.counts["finish_files"] = len(p.stdout.split())
+        return True
+
     def finish(self, started):
         commit_mod.clear_staging(self.staging_root)
         copied = self.copy_through()
         tasks = {tid: r for tid, r in self.journal.tasks().items() if tid in self.tasks}
         finished = sum(1 for r in tasks.values() if r["status"] == "finished")
         failed = len(self.tasks) - finished
+        if self.production.get("finish"):
+            # note: only a complete production gets its tileset JSONs, so a partial one never
+            # looks complete to a viewer.
+            copied = (self.run_finish() if failed == 0 else True) and copied
         info = {"input": self.input, "output": self.out, "config": self.config, "config_hash": self.chash,
                 "sets": self.a.set, "executor": self.executor.describe() if hasattr(self, "executor") else None,
                 "batch_id": self.batch_id, "host": socket.gethostname(), "started_at": started,

@@ -92,7 +92,8 @@ def run_attempt(spec):
         os.makedirs(out_dir)
     except OSError as e:
         return done("unreachable", f"cannot create the staging folder {out_dir} on host {res['host']}: {e.strerror}")
-    argv = [spec["texdefrag"], "run", spec["input"], "--config", spec["config"], "-o", out_dir, "--quiet", "--report"]
+    argv = [spec["texdefrag"], "run", spec["input"]] + list(spec.get("args") or []) + \
+        ["--config", spec["config"], "-o", out_dir, "--quiet", "--report"]
     for s in spec.get("sets") or []:
         argv += ["--set", s]
     if spec.get("threads") is not None:

@@ -157,7 +157,14 @@ GltfOutput write_gltf(const GltfModel& in, const TexturedMesh& out, const std::v
 /// JPEG/PNG stand-ins alike): each group must be read as one model so that the shared atlas stays
 /// one atlas. Groups and their members keep the input order. Reads only each document's JSON;
 /// throws GltfError naming the file when it is not a GLB or glTF JSON.
-std::vector<std::vector<size_t>> gltf_shared_image_groups(const std::vector<GltfInput>& inputs);
+/// image_files: when given, filled with one list per input of the existing image files it may read
+/// (each external image URI, and the JPEG/PNG stand-ins of a KTX2 image: its `name` beside the
+/// document, the URI with .jpg/.jpeg/.png), for input hashes.
+/// unreadable: when given, a document that cannot be read is not an error: its message is appended
+/// here and it is a group of its own (reading it as a model later fails with that error).
+std::vector<std::vector<size_t>> gltf_shared_image_groups(const std::vector<GltfInput>& inputs,
+                                                          std::vector<std::vector<std::string>>* image_files = nullptr,
+                                                          std::vector<std::string>* unreadable = nullptr);
 
 /// True when `bytes` start with the GLB magic "glTF".
 bool is_glb(const std::vector<uint8_t>& bytes);

@@ -55,10 +55,38 @@ B3dm parse_b3dm(const std::vector<uint8_t>& bytes, const std::string& where);
 /// The b3dm bytes of `b` (tables unchanged, GLB padded to 8 bytes as the specification asks).
 std::string write_b3dm(const B3dm& b);
 
+/// One model of a tileset: the contents that share an atlas (io/gltf.h gltf_shared_image_groups),
+/// so they must be processed together (one task of `texdefrag batch`).
+struct TilesetModel {
+  std::vector<std::string> contents;  ///< relative to the entry tileset's folder ('/'), tree order
+  std::vector<std::string> files;     ///< what the model reads: its content files, then the image files they name
+  std::string parent;                 ///< the tileset JSON naming the first content
+};
+
+/// A tileset split into models: every glTF/GLB/b3dm content in exactly one model, in tree order of
+/// their first content; `copies`: other contents (pnts, i3dm, cmpt), relative names, passed through.
+struct TilesetPlan {
+  Tileset tileset;
+  std::vector<TilesetModel> models;
+  std::vector<std::string> copies;
+};
+
+/// Reads the tileset (read_tileset) and groups its contents into models. Reads only each
+/// content's JSON; a content that cannot be read (truncated GLB, bad b3dm header) is a model of
+/// its own, whose run then fails naming it, so one broken tile does not stop the others. Throws
+/// TilesetError naming the file (and the tileset naming it) for a broken tileset tree (read_tileset).
+TilesetPlan plan_tileset(const std::string& path);
+
 struct TilesetRunOptions {
   std::string tileset;     ///< entry tileset JSON
   std::string output_dir;  ///< must not be the tileset's folder
   ProgressFn progress;
+  /// Empty: the whole tileset. Else only the models holding these contents (relative names as
+  /// TilesetPlan gives them); each must be a whole model (contents sharing an atlas are named
+  /// together), else TilesetError. Only those models' files and reports are written: no tileset
+  /// JSON, no copied content, no summary file (finish_tileset writes them once every model is
+  /// done); the returned summary holds each model's run report under "reports".
+  std::vector<std::string> contents;
 };
 
 /// Runs the pipeline on every content of every tile (every level), each group of contents sharing
@@ -69,6 +97,14 @@ struct TilesetRunOptions {
 /// of other kinds (pnts, i3dm, cmpt) are copied unchanged and listed in the summary. Every file
 /// appears at once (one OutputSet); any error leaves nothing.
 nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions& options);
+
+/// The rest of a tileset output whose models were run one by one (TilesetRunOptions::contents,
+/// `texdefrag batch`): checks every glTF/b3dm content's output exists in output_dir (else
+/// TilesetError naming the missing file and the tileset naming its content), copies the other
+/// contents and writes every tileset JSON (as run_tileset does: 3DTILES_content_gltf lists drop
+/// KHR_texture_basisu / KHR_draco_mesh_compression when no output content uses them any more),
+/// all through one OutputSet. Returns the relative names written.
+std::vector<std::string> finish_tileset(const std::string& tileset, const std::string& output_dir);
 
 /// Structural check of a tileset as the 3D Tiles specification states it: every content URI
 /// exists, and every content's positions (glTF node transforms, b3dm RTC_CENTER, the y-up to z-up

@@ -7,9 +7,9 @@
 //   `Tile_*/` or `Data/Tile_*/`) is a task; every other file (metadata.xml, ...) is copied.
 // - kind "obj_folder": a folder without metadata.xml holding .obj files (any depth); each is a
 //   task; files other than OBJ, MTL and images (jpg, jpeg, png, tif, tiff, bmp, tga) are copied.
-// - extension point: a tileset.json (3D Tiles) production is a third kind, listed by the same
-//   function once its format exists (io/tiles3d); until then a folder with tileset.json and no
-//   other kind is an error saying so.
+// - a tileset.json (3D Tiles) production is run by io/tiles3d.h (run_tileset, plan_tileset): the
+//   CLI sends a folder holding one there; here a folder with only a tileset.json is an error
+//   saying so.
 // A task's output goes to OUT/<its relative folder>/ with the input's file stem, and its run report
 // beside it (<stem>.report.json, unless output.write_report is false); OUT/texdefrag_summary.json
 // lists every task with its figures, and totals per level.
