@@ -66,5 +66,13 @@ def chunk(t, d): return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zl
 sys.stdout.buffer.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 8, 8, 8, 2, 0, 0, 0)) + chunk(b"IDAT", b"\x78\x9c\x01\x02")[:12])' > "$work/png/page.png"
 check "corrupt PNG names the file" 1 "$work/png/page.png" -- "$exe" run -q -c "$src/configs/repack.json" "$work/png/m.obj" -o "$work/o10"
 ! grep -q "libpng error" "$work/err" || { echo "FAIL a raw libpng line reached stderr:"; cat "$work/err"; fail=$((fail+1)); }
+# A production (folder of tiles) with one malformed tile: the others are written, the failure is in
+# the summary naming the file, exit 1 (docs/production.md).
+mkdir -p "$work/prod/good" "$work/prod/bad"
+cp "$src"/examples/building/building.{obj,mtl} "$src"/examples/building/building_0.jpg "$work/prod/good/"
+cp "$work/bad.obj" "$work/prod/bad/bad.obj"
+check "production goes on past a failing tile" 1 "FAILED production task 1/2 (bad/bad.obj): $work/prod/bad/bad.obj:4" -- "$exe" run -q -c "$src/configs/repack.json" "$work/prod" -o "$work/o11"
+test -s "$work/o11/good/building.obj" && [ ! -e "$work/o11/bad/bad.obj" ] && grep -q '"failed": 1' "$work/o11/texdefrag_summary.json" \
+  || { echo "FAIL production: good tile not written, bad tile written or summary without the failure"; fail=$((fail+1)); }
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
