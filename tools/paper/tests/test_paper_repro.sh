@@ -77,7 +77,7 @@ else
 fi
 
 # Bad arguments are refused with a message naming them.
-if "$py" "$here/make_buildings.py" -o "$work/bad" --tile "$work/no_such.obj" 2>"$work/err.txt"; then fail "missing tile accepted"; fi
+if "$py" "$here/make_buildings.py" -o "$work/bad" --exe "$exe" --tile "$work/no_such.obj" 2>"$work/err.txt"; then fail "missing tile accepted"; fi
 grep -q "no_such.obj" "$work/err.txt" || fail "missing tile not named: $(cat "$work/err.txt")"
 
 # Real data: the smallest development tile, cut and given its own atlas.
