@@ -29,8 +29,8 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<Args>();
   CLI::App* sub = app.add_subcommand("eval", "Compare an input model with a defragmented output: charts, seams, "
                                              "distortion, texture size and fidelity (docs/eval.md)");
-  sub->add_option("IN", args->in, "input OBJ (the model before defragmentation)")->required();
-  sub->add_option("OUT", args->out, "output OBJ (any tool's result for IN)")->required();
+  sub->add_option("IN", args->in, "input model: OBJ, OSGB or glTF/GLB (the model before defragmentation)")->required();
+  sub->add_option("OUT", args->out, "output model, any built-in format (any tool's result for IN)")->required();
   sub->add_flag("--json", args->json, "print the JSON report instead of the text summary");
   sub->add_option("--samples", args->samples, "surface samples for texture fidelity (spread by UV area)")
       ->check(CLI::Range(static_cast<size_t>(1), static_cast<size_t>(1000000000)));

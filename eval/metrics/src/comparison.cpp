@@ -6,9 +6,14 @@
 #include "texdefrag/core/distortion.h"
 #include "texdefrag/eval/appearance.h"
 #include "texdefrag/eval/metrics.h"
+#include "texdefrag/io/image.h"
+#include "texdefrag/io/model_format.h"
 #include "texdefrag/io/obj.h"
 
+#include <stdlib.h>
+
 #include <algorithm>
+#include <filesystem>
 #include <cmath>
 #include <map>
 #include <limits>
@@ -270,12 +275,47 @@ Comparison compare(const TexturedMesh& in_mesh, const TexturedMesh& out_mesh, co
   return c;
 }
 
-Comparison compare_files(const std::string& in_obj, const std::string& out_obj, const EvalOptions& options) {
-  const TexturedMesh in = read_obj(in_obj);
-  const TexturedMesh out = read_obj(out_obj);
+namespace {
+
+/// A scratch folder removed with everything in it when the guard goes.
+struct ScratchDir {
+  std::string path;
+  ScratchDir() {
+    std::string templ = (std::filesystem::temp_directory_path() / "texdefrag-eval-XXXXXX").string();
+    if (!mkdtemp(templ.data())) throw ImageError("eval: cannot create a scratch folder under " + templ);
+    path = templ;
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+};
+
+/// Reads a model of any built-in format (io/model_format.h: OBJ, OSGB, glTF/GLB). Pages embedded
+/// in the model (OSGB, GLB) are written as PNG files (lossless) into `scratch` and the pages point
+/// at them, so every measure reads them as it reads an OBJ's page files.
+TexturedMesh read_model(const std::string& path, ScratchDir& scratch, const char* tag) {
+  LoadedModel m = format_for_input(path).read(path);
+  for (size_t p = 0; p < m.mesh.pages.size(); ++p) {
+    if (m.page_images.size() <= p || m.page_images[p].pixels.empty()) continue;
+    const std::string file = scratch.path + "/" + tag + "_page" + std::to_string(p) + ".png";
+    write_image(file, m.page_images[p], ImageFormat::Png);
+    m.mesh.pages[p].image_path = file;
+  }
+  return std::move(m.mesh);
+}
+
+}  // namespace
+
+Comparison compare_files(const std::string& in_path, const std::string& out_path, const EvalOptions& options) {
+  ScratchDir scratch;
+  const TexturedMesh in = read_model(in_path, scratch, "in");
+  const TexturedMesh out = read_model(out_path, scratch, "out");
   Comparison c = compare(in, out, options);
-  c.input_path = in_obj;
-  c.output_path = out_obj;
+  c.input_path = in_path;
+  c.output_path = out_path;
   return c;
 }
 

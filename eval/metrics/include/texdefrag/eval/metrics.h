@@ -215,8 +215,10 @@ struct Comparison {
 /// pages' paths when options.texture is set.
 Comparison compare(const TexturedMesh& in, const TexturedMesh& out, const EvalOptions& options = {});
 
-/// Reads both OBJ files (io/obj.h) and compares them. Throws ObjError/ImageError naming the file.
-Comparison compare_files(const std::string& in_obj, const std::string& out_obj, const EvalOptions& options = {});
+/// Reads both models, each in any built-in format (io/model_format.h: OBJ, OSGB, glTF/GLB; pages
+/// embedded in the model are decoded and read losslessly), and compares them. Throws the readers'
+/// errors (ObjError, FormatError, ImageError) naming the file.
+Comparison compare_files(const std::string& in_path, const std::string& out_path, const EvalOptions& options = {});
 
 // ---------------------------------------------------------------------------------------------
 // Reports
