@@ -74,5 +74,7 @@ cp "$work/bad.obj" "$work/prod/bad/bad.obj"
 check "production goes on past a failing tile" 1 "FAILED production task 1/2 (bad/bad.obj): $work/prod/bad/bad.obj:4" -- "$exe" run -q -c "$src/configs/repack.json" "$work/prod" -o "$work/o11"
 test -s "$work/o11/good/building.obj" && [ ! -e "$work/o11/bad/bad.obj" ] && grep -q '"failed": 1' "$work/o11/texdefrag_summary.json" \
   || { echo "FAIL production: good tile not written, bad tile written or summary without the failure"; fail=$((fail+1)); }
+printf '{"packer": {"type": "packers.shelf", "gutter": 6666666e666666466666666}}\n' > "$work/overflow.json"
+check "number overflow in a config names the file" 2 "$work/overflow.json: invalid JSON" -- "$exe" validate -c "$work/overflow.json"
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

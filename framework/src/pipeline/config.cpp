@@ -239,6 +239,10 @@ PipelineConfig load_config(const std::string& path, const std::vector<std::strin
     const size_t p = what.find("parse error");
     throw ConfigError({path + ":" + std::to_string(line) + ":" + std::to_string(col) + ": invalid JSON: " +
                        (p == std::string::npos ? what : what.substr(p))});
+  } catch (const json::exception& e) {
+    // Not a syntax error, e.g. out_of_range 406 "number overflow parsing '6e666'" (found by
+    // fuzz_config): nlohmann gives no position for these, so the message names the file and the token.
+    throw ConfigError({path + ": invalid JSON: " + std::string(e.what())});
   }
   return parse_config(j, path, overrides);
 }
