@@ -76,5 +76,6 @@ test -s "$work/o11/good/building.obj" && [ ! -e "$work/o11/bad/bad.obj" ] && gre
   || { echo "FAIL production: good tile not written, bad tile written or summary without the failure"; fail=$((fail+1)); }
 printf '{"packer": {"type": "packers.shelf", "gutter": 6666666e666666466666666}}\n' > "$work/overflow.json"
 check "number overflow in a config names the file" 2 "$work/overflow.json: invalid JSON" -- "$exe" validate -c "$work/overflow.json"
+check "number overflow in --set names the key" 2 "'gutter' must be an integer" -- "$exe" validate -c "$src/configs/repack.json" --set packer.gutter=6666e66666
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

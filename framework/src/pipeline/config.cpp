@@ -38,7 +38,7 @@ const Section kSections[] = {
 json parse_value(const std::string& v) {
   try {
     return json::parse(v);
-  } catch (const json::parse_error&) {
+  } catch (const json::exception&) {  // a syntax error, or a number that overflows (out_of_range 406)
     return json(v);
   }
 }
