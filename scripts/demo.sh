@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs dependencies, builds texdefrag, runs the main pipeline on the bundled example and prints
 # its metrics (input vs output), then runs it on the bundled production (examples/production: a
-# ContextCapture-style tile at two levels with metadata.xml) and prints its per-tile lines.
+# ContextCapture OSGB pyramid, metadata.xml + a root PagedLOD file + levels 15 and 16 with embedded
+# JPEG pages) and prints its per-tile lines.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
