@@ -257,6 +257,39 @@ class BatchOsgbTest(unittest.TestCase):
         self.assertEqual(p.returncode, 0, p.stderr)
         self.assertEqual(len(journal_rows(out)[1]), 3)
 
+    def test_missing_child_with_and_without_allow_missing_children(self):
+        """The bundled pyramid (examples/production) without its L16 file: the L15 file names a
+        missing PagedLOD child, so its task fails naming both; `--allow-missing-children` is
+        forwarded to every run, changes the configuration hash (the failed task is redone without
+        --retry-failed) and lets it finish, the missing child listed in its report."""
+        d = os.path.join(common.WORKDIR, "productions", "osgb_missing")
+        shutil.rmtree(d, ignore_errors=True)
+        inp, out = os.path.join(d, "in"), os.path.join(d, "out")
+        shutil.copytree(os.path.join(common.SOURCE, "examples", "production"), inp)
+        tile = "Data/Tile_+000_+000/Tile_+000_+000"
+        os.remove(os.path.join(inp, tile + "_L16_0.osgb"))
+        p = batch(inp, "-o", out, "--config", common.CONFIG, "--retries", "0")
+        self.assertEqual(p.returncode, 1, p.stderr)
+        tasks, _ = journal_rows(out)
+        self.assertEqual({k: v["status"] for k, v in tasks.items()}, {tile: "finished", tile + "_L15_0": "failed"})
+        error = tasks[tile + "_L15_0"]["error"]
+        self.assertIn("Tile_+000_+000_L16_0.osgb", error)  # the child ...
+        self.assertIn("Tile_+000_+000_L15_0.osgb", error)  # ... and its parent
+        self.assertIn("--allow-missing-children", batch("--help").stdout)
+        p = batch(inp, "-o", out, "--config", common.CONFIG, "--allow-missing-children", "--dry-run")
+        decisions = dict(line.split("\t") for line in p.stdout.splitlines())
+        self.assertEqual(decisions, {tile: "configuration changed", tile + "_L15_0": "configuration changed"})
+        p = batch(inp, "-o", out, "--config", common.CONFIG, "--allow-missing-children", "--retries", "0")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        tasks, _ = journal_rows(out)
+        self.assertTrue(all(r["status"] == "finished" for r in tasks.values()), tasks)
+        with open(os.path.join(out, tile + "_L15_0.report.json")) as f:
+            report = json.load(f)
+        missing = report["stages"]["read"]["missing_files"]
+        self.assertEqual(len(missing), 1, missing)
+        self.assertIn("Tile_+000_+000_L16_0.osgb", missing[0])
+        self.assertEqual(leftovers(out), [])
+
 
 if __name__ == "__main__":
     unittest.main(verbosity=2)

@@ -1,7 +1,7 @@
 """texdefrag batch: defragment a whole production, resumable and fault-tolerant (docs/batch.md).
 
     texdefrag batch INPUT -o OUT --config C.json [--set K=V]... [-j N | --scheduler tcp://HOST:PORT]
-                    [--timeout S] [--retries N] [--retry-failed] [--dry-run] [--quiet]
+                    [--threads N] [--allow-missing-children] [--timeout S] [--retries N] [--retry-failed] [--dry-run] [--quiet]
 
 One task per tile file and level (`texdefrag tasks INPUT --json`); each runs `texdefrag run` on one
 input into its own staging folder, and its outputs are renamed into OUT with the production's
@@ -39,6 +39,9 @@ def parse_args(argv):
     ap.add_argument("-o", "--output", required=True, help="output folder (same layout as the input)")
     ap.add_argument("-c", "--config", required=True, help="pipeline configuration (JSON)")
     ap.add_argument("--set", action="append", default=[], metavar="K=V", help="option override (as texdefrag run)")
+    ap.add_argument("--allow-missing-children", action="store_true",
+                    help="process models whose child files (OSGB PagedLOD levels) are missing "
+                         "(texdefrag run --allow-missing-children; listed in each run report)")
     ap.add_argument("-j", "--jobs", type=int, default=1, help="local parallel processes (default 1)")
     ap.add_argument("--threads", type=int, metavar="N",
                     help="threads inside each run (texdefrag run --threads; 0 = every core; default: every core)")
@@ -105,7 +108,7 @@ class Batch:
         self.lock.acquire(self.argv)
         self.journal = journal_mod.Journal(os.path.join(self.state, "journal.sqlite"))
         plan.validate_config(self.a.texdefrag, self.config, self.a.set)
-        self.chash = plan.config_hash(self.config, self.a.set)
+        self.chash = plan.config_hash(self.config, self.a.set, self.run_options())
         self.production = plan.list_tasks(self.a.texdefrag, self.input, self.out)
         self.tasks = {t["id"]: t for t in self.production["tasks"]}
 
@@ -140,9 +143,14 @@ class Batch:
         return todo
 
     # -- run ---------------------------------------------------------------------------------
+    def run_options(self):
+        """The `texdefrag run` options every task gets besides the configuration (they change what a
+        run accepts or writes, so they are part of the configuration hash)."""
+        return ["--allow-missing-children"] if self.a.allow_missing_children else []
+
     def spec(self, t):
         name = f"{self.batch_id}-{safe(t['id'])}-{uuid.uuid4().hex[:8]}"
-        return {"texdefrag": self.exe, "input": t["input"], "args": list(t.get("args") or []), "config": self.config,
+        return {"texdefrag": self.exe, "input": t["input"], "args": list(t.get("args") or []) + self.run_options(), "config": self.config,
                 "sets": list(self.a.set), "threads": self.a.threads, "staging": os.path.join(self.staging_root, name),
                 "timeout_s": self.a.timeout}
 

@@ -45,14 +45,19 @@ def validate_config(texdefrag, config, sets):
         raise PlanError(p.stderr.strip() or f"{config}: invalid configuration (exit code {p.returncode})")
 
 
-def config_hash(config, sets):
-    """sha256 of the configuration's canonical JSON and the overrides, in order."""
+def config_hash(config, sets, run_options=()):
+    """sha256 of the configuration's canonical JSON, the overrides in order, and the run options
+    that change what a run accepts or writes (--allow-missing-children); without any, the hash is
+    that of the configuration and overrides alone (journals of earlier batches stay valid)."""
     try:
         with open(config) as f:
             cfg = json.load(f)
     except (OSError, ValueError) as e:
         raise PlanError(f"{config}: {e}") from None
-    text = json.dumps({"config": cfg, "sets": list(sets)}, sort_keys=True, separators=(",", ":"))
+    doc = {"config": cfg, "sets": list(sets)}
+    if run_options:
+        doc["run_options"] = list(run_options)
+    text = json.dumps(doc, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()
 
 
