@@ -307,9 +307,12 @@ TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, con
   return out;
 }
 
-json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
-  const auto t_start = Clock::now();
-  const double cpu_start = process_cpu_seconds();
+namespace {
+
+// run_pipeline's steps, in the order it runs them. Each writes its figures into the run report.
+
+/// The report's header: version, input, configuration (as given and effective), thread count.
+json start_report(const PipelineConfig& config, const RunOptions& options) {
   json report;
   report["texdefrag_version"] = "0.1.0";
   report["input"] = options.input;
@@ -317,22 +320,25 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   report["config"] = config.effective;
   report["stages"] = json::object();
   report["threads"] = thread_count();
-  ProgressFn progress = rate_limited(options.progress);
+  return report;
+}
 
-  std::string stem = config.output.get_string("name");
-  if (stem.empty()) stem = fs::path(options.input).stem().string();
-  if (options.write_output) {
-    if (options.output_dir.empty()) throw StageError("no output folder given");
-    const std::string in_dir = canonical_or_absolute(fs::path(options.input).parent_path().empty()
-                                                         ? std::string(".")
-                                                         : fs::path(options.input).parent_path().string());
-    if (canonical_or_absolute(options.output_dir) == in_dir)
-      throw StageError("output folder " + options.output_dir + " is the input's folder; choose another so no input file can be overwritten");
-  }
+/// Refuses a run that would write without an output folder, or into the input's own folder.
+void check_output_folder(const RunOptions& options) {
+  if (!options.write_output) return;
+  if (options.output_dir.empty()) throw StageError("no output folder given");
+  const std::string in_dir = canonical_or_absolute(fs::path(options.input).parent_path().empty()
+                                                       ? std::string(".")
+                                                       : fs::path(options.input).parent_path().string());
+  if (canonical_or_absolute(options.output_dir) == in_dir)
+    throw StageError("output folder " + options.output_dir + " is the input's folder; choose another so no input file can be overwritten");
+}
 
-  const ModelFormat& format = options.format ? *options.format : format_for_input(options.input);
-  LoadedModel model;
-  TexturedMesh& mesh = model.mesh;
+/// Step "read": reads the input (or takes options.model) into `model`; a missing referenced file
+/// is an error unless allow_missing_children, then it is listed in the node.
+void read_step(json& report, const ModelFormat& format, const RunOptions& options, const ProgressFn& progress,
+               LoadedModel& model) {
+  const TexturedMesh& mesh = model.mesh;
   timed(report, "read", [&](json& node) {
     progress("read", 0);
     model = options.model ? *options.model : format.read(options.input);
@@ -350,14 +356,188 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
     node["pages"] = mesh.pages.size();
     progress("read", 1);
   });
-  // The write service: every input file is protected; the names known now are checked before any
-  // stage runs, so a run that would overwrite an input (an MTL the input keeps in the output
-  // folder) is refused at once.
+}
+
+/// The write service of a run that writes its own files (null otherwise): every input file is
+/// protected, and the names known now are checked before any stage runs, so a run that would
+/// overwrite an input (an MTL the input keeps in the output folder) is refused at once.
+std::unique_ptr<OutputSet> open_outputs(const PipelineConfig& config, const RunOptions& options,
+                                        const ModelFormat& format, const LoadedModel& model, const std::string& stem) {
   std::unique_ptr<OutputSet> outputs;
   if (options.write_output && !options.write) {  // a write hook writes into its caller's set
     outputs = std::make_unique<OutputSet>(options.output_dir, protected_inputs(config, model), options.input);
     for (const std::string& name : {format.output_name(stem), stem + ".mtl", stem + ".report.json"}) outputs->check(name);
   }
+  return outputs;
+}
+
+/// The report's "input_stats": faces, untextured faces, topology, charts, UV overlaps, megapixels.
+void record_input_stats(json& report, const TexturedMesh& mesh, const Topology& topo, const ChartSet& charts,
+                        size_t input_overlaps) {
+  size_t untextured = 0;
+  for (const Face& f : mesh.faces) untextured += f.page == kNoPage;
+  report["input_stats"] = {{"faces", mesh.faces.size()}, {"untextured_faces", untextured},
+                           {"topology", topology_summary(topo.report)}, {"charts", chart_summary(charts)},
+                           {"uv_overlap_pairs", input_overlaps}};
+  double mp = 0;
+  for (const Page& p : mesh.pages) mp += static_cast<double>(p.width) * p.height / 1e6;
+  report["input_stats"]["megapixels"] = mp;
+}
+
+/// Runs one stage on ctx and checks its contract (detector: regions a partition; merger: a valid
+/// atlas adding no overlap inside a chart; packer: a valid layout adding no overlap). Returns the
+/// UV overlap pairs counted after a merger or packer (0 after a detector).
+size_t run_and_check(Stage& stage, const std::string& type, StageContext& ctx, size_t input_overlaps) {
+  const TexturedMesh& mesh = *ctx.mesh;
+  size_t stage_overlaps = 0;
+  if (auto* d = dynamic_cast<Detector*>(&stage)) {
+    d->detect(ctx);
+    check_regions(ctx, type);
+  } else if (auto* m = dynamic_cast<Merger*>(&stage)) {
+    m->merge(ctx);
+    check_atlas(ctx, type);
+    // note: checked here as well as after packing, so that an overlap a merger made inside a
+    // chart is reported as the merger's, not as the packer's that only moved the chart.
+    stage_overlaps = chart_overlap_pairs(mesh, ctx.atlas);
+    if (stage_overlaps > input_overlaps)
+      throw StageError(type + ": the merged charts overlap themselves in " + std::to_string(stage_overlaps) +
+                       " pairs of UV triangles, the input only in " + std::to_string(input_overlaps) +
+                       " (no stage may add overlaps)");
+  } else if (auto* p = dynamic_cast<Packer*>(&stage)) {
+    p->pack(ctx);
+    check_layout(ctx, type);
+    stage_overlaps = uv_overlap_pairs(mesh, ctx.atlas, &ctx.layout);
+    if (stage_overlaps > input_overlaps)
+      throw StageError(type + ": the packed charts overlap in " + std::to_string(stage_overlaps) +
+                       " pairs of UV triangles, the input only in " + std::to_string(input_overlaps) +
+                       " (no stage may add overlaps)");
+  }
+  return stage_overlaps;
+}
+
+/// One configured stage as a timed report node: the stage writes its own numbers into a fresh
+/// node; the framework's figures (section, regions / charts / pages, overlaps) are added after the
+/// framework checked the stage's contract and that it wrote no reserved key.
+void stage_step(json& report, Stage& stage, const StageConfig& sc, StageContext& ctx, size_t input_overlaps) {
+  timed(report, sc.type, [&](json& node) {
+    json own = json::object();
+    ctx.report = &own;
+    ctx.step(sc.type, 0);
+    const int charts_in = ctx.atlas.num_charts;
+    const size_t stage_overlaps = run_and_check(stage, sc.type, ctx, input_overlaps);
+    ctx.step(sc.type, 1);
+    ctx.report = nullptr;
+    check_reserved_keys(own, sc.type);
+    for (auto it = own.begin(); it != own.end(); ++it) node[it.key()] = it.value();
+    node["section"] = sc.section;
+    if (dynamic_cast<Detector*>(&stage)) {
+      node["regions"] = ctx.regions.num_regions;
+    } else if (dynamic_cast<Merger*>(&stage)) {
+      report_merger_figures(*ctx.mesh, charts_in, ctx.atlas, node);
+      node["uv_overlap_pairs"] = stage_overlaps;
+    } else {
+      node["pages_out"] = ctx.layout.pages.size();
+      node["uv_overlap_pairs"] = stage_overlaps;
+    }
+  });
+}
+
+/// The texture section's options as the resampler takes them.
+ResampleOptions resample_options(const Options& t) {
+  ResampleOptions ro;
+  ro.filter = t.get_enum<Filter>("filter", {{"nearest", Filter::Nearest}, {"bilinear", Filter::Bilinear}, {"bicubic", Filter::Bicubic}});
+  ro.fill = t.get_enum<GutterFill>("fill", {{"none", GutterFill::None}, {"dilate", GutterFill::Dilate}, {"pull_push", GutterFill::PullPush}});
+  ro.dilate_width = static_cast<int>(t.get_int("dilate_width"));
+  ro.fit = t.get_enum<TexelFit>("fit", {{"sample", TexelFit::Sample}, {"least_squares", TexelFit::LeastSquares}});
+  ro.fit_iterations = static_cast<int>(t.get_int("fit_iterations"));
+  return ro;
+}
+
+/// Step "texture.resample": decodes the input pages some face uses, returns the output pages of
+/// ctx's atlas and layout.
+std::vector<Image> resample_step(json& report, const PipelineConfig& config, const LoadedModel& model,
+                                 const StageContext& ctx, const ProgressFn& progress) {
+  const TexturedMesh& mesh = model.mesh;
+  std::vector<Image> out_pages;
+  timed(report, "texture.resample", [&](json& node) {
+    std::vector<Image> in_pages(mesh.pages.size());
+    std::vector<uint8_t> used(mesh.pages.size(), 0);
+    for (const Face& f : mesh.faces)
+      if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
+    for (size_t p = 0; p < mesh.pages.size(); ++p)
+      if (used[p]) in_pages[p] = model.page_image(p);
+    const ResampleOptions ro = resample_options(config.texture);
+    ResampleStats rs;
+    out_pages = resample_atlas(mesh, in_pages, ctx.atlas, ctx.layout, ro, &rs, progress);
+    node["texels_written"] = rs.texels_written;
+    node["texels_copied"] = rs.texels_copied;
+    node["faces_copied"] = rs.faces_copied;
+    node["faces_resampled"] = rs.faces_resampled;
+    node["texels_fitted"] = rs.texels_fitted;
+  });
+  return out_pages;
+}
+
+/// Step "write": the output mesh and pages through the format's writer into `outputs` (or through
+/// options.write, which writes into its caller's set).
+void write_step(json& report, const PipelineConfig& config, const RunOptions& options, const ModelFormat& format,
+                const LoadedModel& model, const StageContext& ctx, const std::vector<Image>& out_pages,
+                const std::string& stem, OutputSet* outputs) {
+  timed(report, "write", [&](json& node) {
+    PageWriteOptions po = choose_page_options(model, config.output.get_string("image_format"),
+                                              static_cast<int>(config.output.get_int("jpeg_quality")),
+                                              config.output.get_bool("match_input_quality"),
+                                              config.output.get_string("jpeg_subsampling"));
+    po.output_options = config.output.values();
+    const std::string ext = po.format == ImageFormat::Jpeg ? "jpg" : "png";
+    TexturedMesh out = make_output_mesh(model.mesh, ctx.atlas, ctx.layout, stem, ext, options.output_dir);
+    const WriteResult wr = options.write ? options.write(model, out, out_pages, po)
+                                         : format.write(model, out, out_pages, stem, po, *outputs);
+    node["format"] = format.name();
+    node["image_format"] = ext == "jpg" ? "jpeg" : "png";
+    if (po.format == ImageFormat::Jpeg) {
+      node["jpeg_quality"] = po.jpeg_quality;
+      node["jpeg_subsampling"] = jpeg_subsampling_name(po.jpeg_subsampling);
+    }
+    node["file"] = wr.main_file;
+    node["page_bytes"] = wr.page_bytes;
+    size_t in_bytes = 0;
+    for (const PageEncoding& e : model.page_encodings) in_bytes += e.bytes;
+    node["input_page_bytes"] = in_bytes;
+    for (const auto& kv : wr.report.items()) node[kv.key()] = kv.value();
+    report["output"] = wr.main_file;
+  });
+}
+
+/// The report's totals: wall and CPU time since the run started, and the run's peak memory.
+void finish_report(json& report, Clock::time_point t_start, double cpu_start) {
+  report["total_time_s"] = seconds_since(t_start);
+  report["total_cpu_s"] = process_cpu_seconds() - cpu_start;
+  // note: the kernel's peak counter is reset before each stage, so the run's peak is the largest
+  // stage peak.
+  size_t peak = peak_rss_bytes();
+  for (const auto& kv : report["stages"].items())
+    if (kv.value().contains("peak_rss_bytes")) peak = std::max(peak, kv.value()["peak_rss_bytes"].get<size_t>());
+  report["peak_rss_bytes"] = peak;
+}
+
+}  // namespace
+
+json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
+  const auto t_start = Clock::now();
+  const double cpu_start = process_cpu_seconds();
+  json report = start_report(config, options);
+  ProgressFn progress = rate_limited(options.progress);
+
+  std::string stem = config.output.get_string("name");
+  if (stem.empty()) stem = fs::path(options.input).stem().string();
+  check_output_folder(options);
+
+  const ModelFormat& format = options.format ? *options.format : format_for_input(options.input);
+  LoadedModel model;
+  TexturedMesh& mesh = model.mesh;
+  read_step(report, format, options, progress, model);
+  std::unique_ptr<OutputSet> outputs = open_outputs(config, options, format, model, stem);
   Topology topo;
   ChartSet charts;
   timed(report, "charts", [&](json& node) {
@@ -368,16 +548,7 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   });
   // note: counted once here; after packing the framework counts again and refuses more.
   const size_t input_overlaps = uv_overlap_pairs(mesh, charts.atlas, nullptr);
-  size_t untextured = 0;
-  for (const Face& f : mesh.faces) untextured += f.page == kNoPage;
-  report["input_stats"] = {{"faces", mesh.faces.size()}, {"untextured_faces", untextured},
-                           {"topology", topology_summary(topo.report)}, {"charts", chart_summary(charts)},
-                           {"uv_overlap_pairs", input_overlaps}};
-  {
-    double mp = 0;
-    for (const Page& p : mesh.pages) mp += static_cast<double>(p.width) * p.height / 1e6;
-    report["input_stats"]["megapixels"] = mp;
-  }
+  record_input_stats(report, mesh, topo, charts, input_overlaps);
 
   StageContext ctx;
   ctx.mesh = &mesh;
@@ -392,51 +563,7 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   for (const StageConfig* sc : stages) {
     auto stage = reg.create(sc->type);
     stage->set_options(sc->options);
-    timed(report, sc->type, [&](json& node) {
-      // The stage writes its own numbers into a fresh node; the framework's figures are added after
-      // the framework checked the stage's contract.
-      json own = json::object();
-      ctx.report = &own;
-      ctx.step(sc->type, 0);
-      const int charts_in = ctx.atlas.num_charts;
-      size_t stage_overlaps = 0;
-      if (auto* d = dynamic_cast<Detector*>(stage.get())) {
-        d->detect(ctx);
-        check_regions(ctx, sc->type);
-      } else if (auto* m = dynamic_cast<Merger*>(stage.get())) {
-        m->merge(ctx);
-        check_atlas(ctx, sc->type);
-        // note: checked here as well as after packing, so that an overlap a merger made inside a
-        // chart is reported as the merger's, not as the packer's that only moved the chart.
-        stage_overlaps = chart_overlap_pairs(mesh, ctx.atlas);
-        if (stage_overlaps > input_overlaps)
-          throw StageError(sc->type + ": the merged charts overlap themselves in " + std::to_string(stage_overlaps) +
-                           " pairs of UV triangles, the input only in " + std::to_string(input_overlaps) +
-                           " (no stage may add overlaps)");
-      } else if (auto* p = dynamic_cast<Packer*>(stage.get())) {
-        p->pack(ctx);
-        check_layout(ctx, sc->type);
-        stage_overlaps = uv_overlap_pairs(mesh, ctx.atlas, &ctx.layout);
-        if (stage_overlaps > input_overlaps)
-          throw StageError(sc->type + ": the packed charts overlap in " + std::to_string(stage_overlaps) +
-                           " pairs of UV triangles, the input only in " + std::to_string(input_overlaps) +
-                           " (no stage may add overlaps)");
-      }
-      ctx.step(sc->type, 1);
-      ctx.report = nullptr;
-      check_reserved_keys(own, sc->type);
-      for (auto it = own.begin(); it != own.end(); ++it) node[it.key()] = it.value();
-      node["section"] = sc->section;
-      if (dynamic_cast<Detector*>(stage.get())) {
-        node["regions"] = ctx.regions.num_regions;
-      } else if (dynamic_cast<Merger*>(stage.get())) {
-        report_merger_figures(mesh, charts_in, ctx.atlas, node);
-        node["uv_overlap_pairs"] = stage_overlaps;
-      } else {
-        node["pages_out"] = ctx.layout.pages.size();
-        node["uv_overlap_pairs"] = stage_overlaps;
-      }
-    });
+    stage_step(report, *stage, *sc, ctx, input_overlaps);
     if (options.on_stage) options.on_stage(sc->section, ctx);
     if (sc->section == options.stop_after) return report;
   }
@@ -447,29 +574,7 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   ctx.input_charts = nullptr;
   topo = Topology();
   charts = ChartSet();
-  std::vector<Image> out_pages;
-  timed(report, "texture.resample", [&](json& node) {
-    std::vector<Image> in_pages(mesh.pages.size());
-    std::vector<uint8_t> used(mesh.pages.size(), 0);
-    for (const Face& f : mesh.faces)
-      if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
-    for (size_t p = 0; p < mesh.pages.size(); ++p)
-      if (used[p]) in_pages[p] = model.page_image(p);
-    ResampleOptions ro;
-    const Options& t = config.texture;
-    ro.filter = t.get_enum<Filter>("filter", {{"nearest", Filter::Nearest}, {"bilinear", Filter::Bilinear}, {"bicubic", Filter::Bicubic}});
-    ro.fill = t.get_enum<GutterFill>("fill", {{"none", GutterFill::None}, {"dilate", GutterFill::Dilate}, {"pull_push", GutterFill::PullPush}});
-    ro.dilate_width = static_cast<int>(t.get_int("dilate_width"));
-    ro.fit = t.get_enum<TexelFit>("fit", {{"sample", TexelFit::Sample}, {"least_squares", TexelFit::LeastSquares}});
-    ro.fit_iterations = static_cast<int>(config.texture.get_int("fit_iterations"));
-    ResampleStats rs;
-    out_pages = resample_atlas(mesh, in_pages, ctx.atlas, ctx.layout, ro, &rs, progress);
-    node["texels_written"] = rs.texels_written;
-    node["texels_copied"] = rs.texels_copied;
-    node["faces_copied"] = rs.faces_copied;
-    node["faces_resampled"] = rs.faces_resampled;
-    node["texels_fitted"] = rs.texels_fitted;
-  });
+  const std::vector<Image> out_pages = resample_step(report, config, model, ctx, progress);
 
   double mp_out = 0;
   for (const auto& p : ctx.layout.pages) mp_out += static_cast<double>(p.width) * p.height / 1e6;
@@ -478,40 +583,8 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
                             {"pages", ctx.layout.pages.size()},
                             {"megapixels", mp_out}};
 
-  if (options.write_output) {
-    timed(report, "write", [&](json& node) {
-      PageWriteOptions po = choose_page_options(model, config.output.get_string("image_format"),
-                                                static_cast<int>(config.output.get_int("jpeg_quality")),
-                                                config.output.get_bool("match_input_quality"),
-                                                config.output.get_string("jpeg_subsampling"));
-      po.output_options = config.output.values();
-      const std::string ext = po.format == ImageFormat::Jpeg ? "jpg" : "png";
-      TexturedMesh out = make_output_mesh(mesh, ctx.atlas, ctx.layout, stem, ext, options.output_dir);
-      const WriteResult wr = options.write ? options.write(model, out, out_pages, po)
-                                           : format.write(model, out, out_pages, stem, po, *outputs);
-      node["format"] = format.name();
-      node["image_format"] = ext == "jpg" ? "jpeg" : "png";
-      if (po.format == ImageFormat::Jpeg) {
-        node["jpeg_quality"] = po.jpeg_quality;
-        node["jpeg_subsampling"] = jpeg_subsampling_name(po.jpeg_subsampling);
-      }
-      node["file"] = wr.main_file;
-      node["page_bytes"] = wr.page_bytes;
-      size_t in_bytes = 0;
-      for (const PageEncoding& e : model.page_encodings) in_bytes += e.bytes;
-      node["input_page_bytes"] = in_bytes;
-      for (const auto& kv : wr.report.items()) node[kv.key()] = kv.value();
-      report["output"] = wr.main_file;
-    });
-  }
-  report["total_time_s"] = seconds_since(t_start);
-  report["total_cpu_s"] = process_cpu_seconds() - cpu_start;
-  // note: the kernel's peak counter is reset before each stage, so the run's peak is the largest
-  // stage peak.
-  size_t peak = peak_rss_bytes();
-  for (const auto& kv : report["stages"].items())
-    if (kv.value().contains("peak_rss_bytes")) peak = std::max(peak, kv.value()["peak_rss_bytes"].get<size_t>());
-  report["peak_rss_bytes"] = peak;
+  if (options.write_output) write_step(report, config, options, format, model, ctx, out_pages, stem, outputs.get());
+  finish_report(report, t_start, cpu_start);
   if (outputs) {
     // The report is the manifest: written last, so its presence vouches for the set beside it.
     if (config.output.get_bool("write_report")) {
