@@ -641,13 +641,14 @@ void write_file_atomic(const std::string& path, const std::vector<std::string_vi
   }
 }
 
-void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjWriteOptions& options) {
-  const fs::path obj(obj_path);
-  if (obj.filename().empty()) throw ObjError(obj_path + ": not a file name");
-  const std::string mtl_name = options.mtl_name.empty() ? obj.stem().string() + ".mtl" : options.mtl_name;
-  const fs::path mtl = obj.parent_path() / mtl_name;
+namespace {
 
-  // Refuse to overwrite inputs (and the OBJ with its own MTL).
+// write_obj's steps: check everything, format the MTL and the OBJ in memory, then write both.
+
+/// Refuses an OBJ path that is not a file name, an MTL that names the OBJ itself, and either file
+/// under options.protected_paths (the same rule as the write service's, io/output_set.h).
+void check_output_paths(const std::string& obj_path, const fs::path& obj, const fs::path& mtl,
+                        const std::string& mtl_name, const ObjWriteOptions& options) {
   const fs::path c_obj = canonical_or_absolute(obj), c_mtl = canonical_or_absolute(mtl);
   if (c_obj == c_mtl) throw ObjError(obj_path + ": the MTL name " + in_quotes(mtl_name) + " names the OBJ itself");
   // note: the same check as the write service's (io/output_set.h): canonical, and a protected
@@ -656,8 +657,13 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
   if (!prot.empty()) throw ObjError(obj_path + ": refusing to overwrite the protected file " + prot);
   prot = protected_match(mtl.string(), options.protected_paths);
   if (!prot.empty()) throw ObjError(mtl.string() + ": refusing to overwrite the protected file " + prot);
+}
 
-  // Materials and pages must agree: each page names one material, at most one page per material.
+/// Checks that materials and pages agree (clean unique material names, extra lines that are one
+/// line and not newmtl/map_Kd, each page naming one material, at most one page per material, each
+/// page with an image file name) and that groups are one-line `g`/`o` statements. Returns each
+/// material's page (kNoPage for a material without one).
+std::vector<int> check_materials_and_groups(const TexturedMesh& mesh, const std::string& obj_path) {
   std::unordered_map<std::string, size_t> material_of_name;
   for (size_t m = 0; m < mesh.materials.size(); ++m) {
     const Material& mat = mesh.materials[m];
@@ -689,8 +695,12 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
     if (!is_clean_name(text) || text.size() < 3 || (text[0] != 'g' && text[0] != 'o') || !is_space(text[1]))
       throw ObjError(obj_path + ": group " + std::to_string(g) + " is " + in_quotes(text) + " (expected a statement 'g NAME' or 'o NAME' on one line)");
   }
+  return page_of_material;
+}
 
-  // MTL.
+/// The MTL text: one newmtl block per material, its extra lines, and map_Kd (with its options)
+/// naming the file of the material's page, if it has one.
+std::string format_mtl(const TexturedMesh& mesh, const std::vector<int>& page_of_material) {
   std::string m_out = "# written by texdefrag\n";
   for (size_t m = 0; m < mesh.materials.size(); ++m) {
     const Material& mat = mesh.materials[m];
@@ -706,10 +716,68 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
       m_out += '\n';
     }
   }
+  return m_out;
+}
 
-  // OBJ: the lines of each section are formatted in blocks on the framework's threads and written
-  // in order, so the file does not depend on the thread count (and an error names the first bad
-  // element, as a sequential pass would).
+/// Appends face f's lines to `out`: `g`/`usemtl` when its group or material differs from face
+/// f-1's, then its `f` line. Throws ObjError naming the face when an index is out of range, a face
+/// without a material follows one with, corners mix texture coordinates or normals, or its page is
+/// not the one its material yields on reading back.
+void format_face(std::string& out, const TexturedMesh& mesh, size_t f, const std::vector<int>& page_of_material,
+                 const std::string& obj_path) {
+  const Face& fc = mesh.faces[f];
+  const int group = f == 0 ? kNoIndex : mesh.faces[f - 1].group;
+  const int material = f == 0 ? kNoIndex : mesh.faces[f - 1].material;
+  if (fc.group != group) {
+    if (fc.group == kNoIndex) {
+      out += "g\n";
+    } else {
+      if (fc.group < 0 || static_cast<size_t>(fc.group) >= mesh.groups.size())
+        throw ObjError(obj_path + ": " + face_label(mesh, f) + " has group " + std::to_string(fc.group) + " out of range");
+      out += mesh.groups[static_cast<size_t>(fc.group)];
+      out += '\n';
+    }
+  }
+  if (fc.material != material) {
+    if (fc.material == kNoIndex)
+      throw ObjError(obj_path + ": " + face_label(mesh, f) + " has no material but follows faces with one (OBJ cannot express this; order faces without a material first)");
+    if (fc.material < 0 || static_cast<size_t>(fc.material) >= mesh.materials.size())
+      throw ObjError(obj_path + ": " + face_label(mesh, f) + " has material " + std::to_string(fc.material) + " out of range");
+    out += "usemtl " + mesh.materials[static_cast<size_t>(fc.material)].name + "\n";
+  }
+  const bool has_vt = fc.vt[0] != kNoIndex, has_vn = fc.vn[0] != kNoIndex;
+  // The page must be the one the material yields on reading back.
+  const int expected_page = has_vt && fc.material != kNoIndex ? page_of_material[static_cast<size_t>(fc.material)] : kNoPage;
+  if (fc.page != expected_page)
+    throw ObjError(obj_path + ": " + face_label(mesh, f) + " has page " + std::to_string(fc.page) + " but its material and texture coordinates give page " + std::to_string(expected_page));
+  out += 'f';
+  for (size_t k = 0; k < 3; ++k) {
+    if ((fc.vt[k] != kNoIndex) != has_vt || (fc.vn[k] != kNoIndex) != has_vn)
+      throw ObjError(obj_path + ": " + face_label(mesh, f) + " mixes corners with and without texture coordinates or normals");
+    if (fc.v[k] < 0 || static_cast<size_t>(fc.v[k]) >= mesh.positions.size() ||
+        (has_vt && (fc.vt[k] < 0 || static_cast<size_t>(fc.vt[k]) >= mesh.texcoords.size())) ||
+        (has_vn && (fc.vn[k] < 0 || static_cast<size_t>(fc.vn[k]) >= mesh.normals.size())))
+      throw ObjError(obj_path + ": " + face_label(mesh, f) + " has an index out of range");
+    out += ' ';
+    append_int(out, fc.v[k] + 1L);
+    if (has_vt || has_vn) {
+      out += '/';
+      if (has_vt) append_int(out, fc.vt[k] + 1L);
+      if (has_vn) {
+        out += '/';
+        append_int(out, fc.vn[k] + 1L);
+      }
+    }
+  }
+  out += '\n';
+}
+
+/// The OBJ text as pieces written in order: header (and mtllib when there are materials), then
+/// v, vt, vn and face lines. The lines of each section are formatted in blocks on the framework's
+/// threads and written in order, so the file does not depend on the thread count (and an error
+/// names the first bad element, as a sequential pass would). Non-finite numbers are an error.
+std::vector<std::string> format_obj(const TexturedMesh& mesh, const std::string& mtl_name,
+                                    const std::vector<int>& page_of_material, const std::string& obj_path) {
   std::vector<std::string> pieces;
   pieces.push_back("# written by texdefrag\n");
   if (!mesh.materials.empty()) pieces.back() += "mtllib " + mtl_name + "\n";
@@ -751,53 +819,22 @@ void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjW
   // note: a face prints `g`/`usemtl` when its group or material differs from the previous face's,
   // so a block starts from the face before it, exactly as the sequential pass would.
   format_blocks(pieces, mesh.faces.size(), 40, [&](std::string& out, size_t f) {
-    const Face& fc = mesh.faces[f];
-    const int group = f == 0 ? kNoIndex : mesh.faces[f - 1].group;
-    const int material = f == 0 ? kNoIndex : mesh.faces[f - 1].material;
-    if (fc.group != group) {
-      if (fc.group == kNoIndex) {
-        out += "g\n";
-      } else {
-        if (fc.group < 0 || static_cast<size_t>(fc.group) >= mesh.groups.size())
-          throw ObjError(obj_path + ": " + face_label(mesh, f) + " has group " + std::to_string(fc.group) + " out of range");
-        out += mesh.groups[static_cast<size_t>(fc.group)];
-        out += '\n';
-      }
-    }
-    if (fc.material != material) {
-      if (fc.material == kNoIndex)
-        throw ObjError(obj_path + ": " + face_label(mesh, f) + " has no material but follows faces with one (OBJ cannot express this; order faces without a material first)");
-      if (fc.material < 0 || static_cast<size_t>(fc.material) >= mesh.materials.size())
-        throw ObjError(obj_path + ": " + face_label(mesh, f) + " has material " + std::to_string(fc.material) + " out of range");
-      out += "usemtl " + mesh.materials[static_cast<size_t>(fc.material)].name + "\n";
-    }
-    const bool has_vt = fc.vt[0] != kNoIndex, has_vn = fc.vn[0] != kNoIndex;
-    // The page must be the one the material yields on reading back.
-    const int expected_page = has_vt && fc.material != kNoIndex ? page_of_material[static_cast<size_t>(fc.material)] : kNoPage;
-    if (fc.page != expected_page)
-      throw ObjError(obj_path + ": " + face_label(mesh, f) + " has page " + std::to_string(fc.page) + " but its material and texture coordinates give page " + std::to_string(expected_page));
-    out += 'f';
-    for (size_t k = 0; k < 3; ++k) {
-      if ((fc.vt[k] != kNoIndex) != has_vt || (fc.vn[k] != kNoIndex) != has_vn)
-        throw ObjError(obj_path + ": " + face_label(mesh, f) + " mixes corners with and without texture coordinates or normals");
-      if (fc.v[k] < 0 || static_cast<size_t>(fc.v[k]) >= mesh.positions.size() ||
-          (has_vt && (fc.vt[k] < 0 || static_cast<size_t>(fc.vt[k]) >= mesh.texcoords.size())) ||
-          (has_vn && (fc.vn[k] < 0 || static_cast<size_t>(fc.vn[k]) >= mesh.normals.size())))
-        throw ObjError(obj_path + ": " + face_label(mesh, f) + " has an index out of range");
-      out += ' ';
-      append_int(out, fc.v[k] + 1L);
-      if (has_vt || has_vn) {
-        out += '/';
-        if (has_vt) append_int(out, fc.vt[k] + 1L);
-        if (has_vn) {
-          out += '/';
-          append_int(out, fc.vn[k] + 1L);
-        }
-      }
-    }
-    out += '\n';
+    format_face(out, mesh, f, page_of_material, obj_path);
   });
+  return pieces;
+}
 
+}  // namespace
+
+void write_obj(const TexturedMesh& mesh, const std::string& obj_path, const ObjWriteOptions& options) {
+  const fs::path obj(obj_path);
+  if (obj.filename().empty()) throw ObjError(obj_path + ": not a file name");
+  const std::string mtl_name = options.mtl_name.empty() ? obj.stem().string() + ".mtl" : options.mtl_name;
+  const fs::path mtl = obj.parent_path() / mtl_name;
+  check_output_paths(obj_path, obj, mtl, mtl_name, options);
+  const std::vector<int> page_of_material = check_materials_and_groups(mesh, obj_path);
+  const std::string m_out = format_mtl(mesh, page_of_material);
+  const std::vector<std::string> pieces = format_obj(mesh, mtl_name, page_of_material, obj_path);
   if (!mesh.materials.empty()) write_file_atomic(mtl.string(), m_out);
   write_file_atomic(obj_path, pieces);
 }
