@@ -325,70 +325,85 @@ bool span(const double ei[3], const double rk[3], double offset, int wlo, int wh
   return true;
 }
 
-/// Rasterises one face on the canvas. Interior texels (centre inside, top-left tie rule) are
-/// always written; border texels (centre within kBorderRadius) only where no interior texel is and
-/// no other triangle is nearer.
-template <int C>
-void render_face(const FaceJob& job, const Sampler<C>& src, Filter filter, Canvas& cv, PageStats& st) {
-  const auto& o = job.out;
-  const double Wd = cv.w, Hd = cv.h;
-  bool degenerate = false;
-  const double det = output_det(o, degenerate);
+/// A face's texel index window: centres within kBorderRadius of its output bounding box (indices
+/// may fall outside the canvas; callers clip them), and the box itself (output texels, y up).
+struct TexelWindow {
+  double xmin = 0, xmax = 0, ymin = 0, ymax = 0;
+  int ilo = 0, ihi = -1, jlo = 0, jhi = -1;
 
-  // Texel index window: centres within kBorderRadius of the bounding box.
-  const double xmin = std::min({o[0].x(), o[1].x(), o[2].x()}), xmax = std::max({o[0].x(), o[1].x(), o[2].x()});
-  const double ymin = std::min({o[0].y(), o[1].y(), o[2].y()}), ymax = std::max({o[0].y(), o[1].y(), o[2].y()});
+  /// L-infinity distance from the point (cx, cy) to the box; 0 inside.
+  double box_dist(double cx, double cy) const { return std::max({xmin - cx, cx - xmax, ymin - cy, cy - ymax, 0.0}); }
+};
+
+/// The window of output triangle `o` on a canvas of Wd x Hd texels.
+TexelWindow texel_window(const std::array<Vec2, 3>& o, double Wd, double Hd) {
+  TexelWindow win;
+  win.xmin = std::min({o[0].x(), o[1].x(), o[2].x()});
+  win.xmax = std::max({o[0].x(), o[1].x(), o[2].x()});
+  win.ymin = std::min({o[0].y(), o[1].y(), o[2].y()});
+  win.ymax = std::max({o[0].y(), o[1].y(), o[2].y()});
   const double r = kBorderRadius;
   const auto window = [](double v, double hi) { return std::min(std::max(v, -1.0), hi); };
-  const int ilo = static_cast<int>(std::floor(window(xmin - r - 0.5, Wd)) + 1);
-  const int ihi = static_cast<int>(std::ceil(window(xmax + r - 0.5, Wd)) - 1);
-  const int jlo = static_cast<int>(std::floor(window(Hd - 0.5 - ymax - r, Hd)) + 1);
-  const int jhi = static_cast<int>(std::ceil(window(Hd - 0.5 - ymin + r, Hd)) - 1);
+  win.ilo = static_cast<int>(std::floor(window(win.xmin - r - 0.5, Wd)) + 1);
+  win.ihi = static_cast<int>(std::ceil(window(win.xmax + r - 0.5, Wd)) - 1);
+  win.jlo = static_cast<int>(std::floor(window(Hd - 0.5 - win.ymax - r, Hd)) + 1);
+  win.jhi = static_cast<int>(std::ceil(window(Hd - 0.5 - win.ymin + r, Hd)) - 1);
+  return win;
+}
 
-  const auto bbox_dist = [&](double cx, double cy) {
-    return std::max({xmin - cx, cx - xmax, ymin - cy, cy - ymax, 0.0});
-  };
-
-  if (degenerate) {
-    // No interior. Border texels near the point/segment take the colour at the input centroid.
-    st.faces_resampled++;
-    uint8_t colour[C] = {};
-    const Vec2 ci = (job.in[0] + job.in[1] + job.in[2]) / 3.0;
-    src.sample(filter, ci.x() - 0.5, src.h - ci.y() - 0.5, colour);
-    // Distance test against the longest edge's supporting line plus the bounding box (exact for a
-    // segment; a single point has only the box).
-    int k0 = 0;
-    double best = -1;
-    for (int k = 0; k < 3; ++k) {
-      const double l2 = (o[static_cast<size_t>((k + 1) % 3)] - o[static_cast<size_t>(k)]).squaredNorm();
-      if (l2 > best) { best = l2; k0 = k; }
-    }
-    const Vec2 a = o[static_cast<size_t>(k0)], d = o[static_cast<size_t>((k0 + 1) % 3)] - a;
-    const double nx = -d.y(), ny = d.x(), nl1 = std::abs(nx) + std::abs(ny);
-    for (int j = std::max(jlo, 0); j <= std::min(jhi, cv.h - 1); ++j) {
-      const double cy = Hd - j - 0.5;
-      for (int i = std::max(ilo, 0); i <= std::min(ihi, cv.w - 1); ++i) {
-        const double cx = i + 0.5;
-        double dd = bbox_dist(cx, cy);
-        if (nl1 > 0) dd = std::max(dd, std::abs(nx * (cx - a.x()) + ny * (cy - a.y())) / nl1);
-        if (!(dd < r)) continue;
-        const size_t idx = cv.index(i, j);
-        const uint8_t s = cv.state[idx] & kCoverMask;
-        if (s == kInterior || (s == kBorder && cv.dist[idx] <= dd)) continue;
-        cv.state[idx] = kBorder;
-        cv.dist[idx] = static_cast<float>(dd);
-        std::memcpy(cv.img->at(i, j), colour, C);
-      }
-    }
-    return;
+/// Renders a degenerate face (a point or a segment: no interior): border texels within
+/// kBorderRadius of it take the colour at the input centroid, where no interior texel is and no
+/// other triangle is nearer.
+template <int C>
+void render_degenerate_face(const FaceJob& job, const Sampler<C>& src, Filter filter, const TexelWindow& win,
+                            Canvas& cv, PageStats& st) {
+  const auto& o = job.out;
+  const double Hd = cv.h;
+  const double r = kBorderRadius;
+  st.faces_resampled++;
+  uint8_t colour[C] = {};
+  const Vec2 ci = (job.in[0] + job.in[1] + job.in[2]) / 3.0;
+  src.sample(filter, ci.x() - 0.5, src.h - ci.y() - 0.5, colour);
+  // Distance test against the longest edge's supporting line plus the bounding box (exact for a
+  // segment; a single point has only the box).
+  int k0 = 0;
+  double best = -1;
+  for (int k = 0; k < 3; ++k) {
+    const double l2 = (o[static_cast<size_t>((k + 1) % 3)] - o[static_cast<size_t>(k)]).squaredNorm();
+    if (l2 > best) { best = l2; k0 = k; }
   }
+  const Vec2 a = o[static_cast<size_t>(k0)], d = o[static_cast<size_t>((k0 + 1) % 3)] - a;
+  const double nx = -d.y(), ny = d.x(), nl1 = std::abs(nx) + std::abs(ny);
+  for (int j = std::max(win.jlo, 0); j <= std::min(win.jhi, cv.h - 1); ++j) {
+    const double cy = Hd - j - 0.5;
+    for (int i = std::max(win.ilo, 0); i <= std::min(win.ihi, cv.w - 1); ++i) {
+      const double cx = i + 0.5;
+      double dd = win.box_dist(cx, cy);
+      if (nl1 > 0) dd = std::max(dd, std::abs(nx * (cx - a.x()) + ny * (cy - a.y())) / nl1);
+      if (!(dd < r)) continue;
+      const size_t idx = cv.index(i, j);
+      const uint8_t s = cv.state[idx] & kCoverMask;
+      if (s == kInterior || (s == kBorder && cv.dist[idx] <= dd)) continue;
+      cv.state[idx] = kBorder;
+      cv.dist[idx] = static_cast<float>(dd);
+      std::memcpy(cv.img->at(i, j), colour, C);
+    }
+  }
+}
 
-  // Edge functions, oriented so the interior is positive, normalised by the L1 norm of the normal
-  // so -E is the L-infinity distance to the edge's line; written in texel indices:
-  // E(i, j) = ei i + ej j + e0 with centre (i + 0.5, H - j - 0.5).
-  const double sgn = det > 0 ? 1.0 : -1.0;
+/// Edge functions of a non-degenerate output triangle, oriented so the interior is positive,
+/// normalised by the L1 norm of the normal so -E is the L-infinity distance to the edge's line;
+/// written in texel indices: E_k(i, j) = ei[k] i + ej[k] j + e0[k] with centre (i + 0.5, H - j - 0.5).
+/// tie[k]: texel centres exactly on edge k belong to this triangle (top-left rule).
+struct EdgeFunctions {
   double ei[3], ej[3], e0[3];
   bool tie[3];
+};
+
+/// The edge functions of `o` (doubled signed area det != 0) on a canvas Hd texels high.
+EdgeFunctions edge_functions(const std::array<Vec2, 3>& o, double det, double Hd) {
+  EdgeFunctions ef;
+  const double sgn = det > 0 ? 1.0 : -1.0;
   for (int k = 0; k < 3; ++k) {
     const Vec2& v = o[static_cast<size_t>(k)];
     const Vec2 e = o[static_cast<size_t>((k + 1) % 3)] - v;
@@ -397,102 +412,151 @@ void render_face(const FaceJob& job, const Sampler<C>& src, Filter filter, Canva
     nx /= l1;
     ny /= l1;
     const double c = -(nx * v.x() + ny * v.y());
-    ei[k] = nx;
-    ej[k] = -ny;
-    e0[k] = nx * 0.5 + ny * (Hd - 0.5) + c;
+    ef.ei[k] = nx;
+    ef.ej[k] = -ny;
+    ef.e0[k] = nx * 0.5 + ny * (Hd - 0.5) + c;
     // note: of two triangles sharing an edge exactly one owns texel centres on it (top-left rule).
-    tie[k] = nx > 0 || (nx == 0 && ny > 0);
+    ef.tie[k] = nx > 0 || (nx == 0 && ny > 0);
   }
+  return ef;
+}
 
-  // Affine map output texel space -> input texel space: in = A out + t.
-  const Affine af = face_affine(o, job.in, det);
-  const double A00 = af.A00, A01 = af.A01, A10 = af.A10, A11 = af.A11, t0 = af.t0, t1 = af.t1;
-  const double Hi = src.h;
+/// Where a non-degenerate face's texels take their colour: the affine map output -> input texel
+/// space (`af`, and `g` in texel indices of both pages), whether texels outside the triangle may
+/// extrapolate it (stretch <= kMaxExtrapolationStretch), and the exact integer copy map when the
+/// face is an unscaled translation, quarter turn or mirror of its input (`copy`).
+struct FaceMapping {
+  Affine af;
   GridMap g;
-  g.xi = A00;
-  g.xj = -A01;
-  g.x0 = A00 * 0.5 + A01 * (Hd - 0.5) + t0 - 0.5;
-  g.yi = -A10;
-  g.yj = A11;
-  g.y0 = Hi - 0.5 - (A10 * 0.5 + A11 * (Hd - 0.5) + t1);
+  bool extrapolate = false;
+  CopyMap cm;
+  bool copy = false;
+};
+
+/// The mapping of `job` (doubled signed output area det != 0) from an input page src_h texels high
+/// to a canvas Hd texels high.
+FaceMapping face_mapping(const FaceJob& job, double det, int src_h, int canvas_h) {
+  FaceMapping m;
+  const double Hd = canvas_h;
+  // Affine map output texel space -> input texel space: in = A out + t.
+  m.af = face_affine(job.out, job.in, det);
+  const double A00 = m.af.A00, A01 = m.af.A01, A10 = m.af.A10, A11 = m.af.A11, t0 = m.af.t0, t1 = m.af.t1;
+  const double Hi = src_h;
+  m.g.xi = A00;
+  m.g.xj = -A01;
+  m.g.x0 = A00 * 0.5 + A01 * (Hd - 0.5) + t0 - 0.5;
+  m.g.yi = -A10;
+  m.g.yj = A11;
+  m.g.y0 = Hi - 0.5 - (A10 * 0.5 + A11 * (Hd - 0.5) + t1);
   // Largest singular value of A (stretch), from the Frobenius norm and determinant.
   const double fro2 = A00 * A00 + A01 * A01 + A10 * A10 + A11 * A11, dA = A00 * A11 - A01 * A10;
   const double stretch = std::sqrt(0.5 * (fro2 + std::sqrt(std::max(fro2 * fro2 - 4 * dA * dA, 0.0))));
-  const bool extrapolate = stretch <= kMaxExtrapolationStretch;
+  m.extrapolate = stretch <= kMaxExtrapolationStretch;
+  m.copy = find_copy_map(job.out, job.in, src_h, canvas_h, m.cm);
+  return m;
+}
 
-  CopyMap cm;
-  const bool copy = find_copy_map(job.out, job.in, src.h, cv.h, cm);
-  if (copy) st.faces_copied++;
-  else st.faces_resampled++;
+/// Renders row j of a non-degenerate face on the canvas, within texel columns [wlo, whi]:
+/// interior texels (centre inside, top-left tie rule) always; border texels (centre within
+/// kBorderRadius) only where no interior texel is and no other triangle is nearer.
+template <int C>
+void render_face_row(int j, int wlo, int whi, const FaceJob& job, const Sampler<C>& src, Filter filter,
+                     const TexelWindow& win, const EdgeFunctions& ef, const FaceMapping& m, Canvas& cv) {
+  const auto& o = job.out;
+  const double Hd = cv.h;
+  const double r = kBorderRadius;
+  const double A00 = m.af.A00, A01 = m.af.A01, A10 = m.af.A10, A11 = m.af.A11, t0 = m.af.t0, t1 = m.af.t1;
+  const double Hi = src.h;
+  const GridMap& g = m.g;
+  const CopyMap& cm = m.cm;
+  const bool copy = m.copy;
   const uint8_t written_state_bits = copy ? kCopied : 0;
-
-  // Along a row every edge function is monotone in i, so both the interior and the border are
-  // intervals: find them from the roots, then settle their ends with the exact predicates.
-  const int wlo = std::max(ilo, 0), whi = std::min(ihi, cv.w - 1);
-  for (int j = std::max(jlo, 0); j <= std::min(jhi, cv.h - 1); ++j) {
-    const double rk[3] = {ej[0] * j + e0[0], ej[1] * j + e0[1], ej[2] * j + e0[2]};
-    const auto E = [&](int k, int i) { return ei[k] * i + rk[k]; };
-    const auto inside = [&](int i) {
-      for (int k = 0; k < 3; ++k) {
-        const double e = E(k, i);
-        if (!(e > 0 || (e == 0 && tie[k]))) return false;
-      }
-      return true;
-    };
-    const auto near = [&](int i) { return E(0, i) > -r && E(1, i) > -r && E(2, i) > -r; };
-    int blo = wlo, bhi = whi, ilo_row = wlo, ihi_row = whi;
-    if (!span(ei, rk, r, wlo, whi, near, blo, bhi)) continue;
-    const bool has_interior = span(ei, rk, 0.0, blo, bhi, inside, ilo_row, ihi_row);
-    if (!has_interior) {
-      ilo_row = bhi + 1;
-      ihi_row = bhi;
+  const double rk[3] = {ef.ej[0] * j + ef.e0[0], ef.ej[1] * j + ef.e0[1], ef.ej[2] * j + ef.e0[2]};
+  const auto E = [&](int k, int i) { return ef.ei[k] * i + rk[k]; };
+  const auto inside = [&](int i) {
+    for (int k = 0; k < 3; ++k) {
+      const double e = E(k, i);
+      if (!(e > 0 || (e == 0 && ef.tie[k]))) return false;
     }
-    const double cy = Hd - j - 0.5;
-    uint8_t* row_px = cv.img->at(0, j);
-    uint8_t* row_state = &cv.state[cv.index(0, j)];
-    float* row_dist = &cv.dist[cv.index(0, j)];
-    const auto border = [&](int i) {
-      const uint8_t s = row_state[i] & kCoverMask;
-      if (s == kInterior) return;
-      const double dd = std::max(std::max(std::max(-E(0, i), -E(1, i)), std::max(-E(2, i), 0.0)), bbox_dist(i + 0.5, cy));
-      if (!(dd < r) || (s == kBorder && row_dist[i] <= dd)) return;
-      row_state[i] = static_cast<uint8_t>(kBorder | written_state_bits);
-      row_dist[i] = static_cast<float>(dd);
-      uint8_t* dst = row_px + static_cast<size_t>(i) * C;
-      if (copy) {
-        std::memcpy(dst, src.texel_at(cm.ci * i + cm.cj * j + cm.c0, cm.ri * i + cm.rj * j + cm.r0), C);
-      } else if (extrapolate) {
-        src.sample(filter, g.xi * i + g.xj * j + g.x0, g.yi * i + g.yj * j + g.y0, dst);
-      } else {
-        const Vec2 p = closest_on_triangle(Vec2(i + 0.5, cy), o[0], o[1], o[2]);
-        const double u = A00 * p.x() + A01 * p.y() + t0, v = A10 * p.x() + A11 * p.y() + t1;
-        src.sample(filter, u - 0.5, Hi - v - 0.5, dst);
-      }
-    };
-    for (int i = blo; i < ilo_row; ++i) border(i);
-    if (ilo_row <= ihi_row) {
-      std::memset(row_state + ilo_row, kInterior | written_state_bits, static_cast<size_t>(ihi_row - ilo_row + 1));
-      if (copy) {
-        const long long cj = cm.cj * j + cm.c0, rj = cm.rj * j + cm.r0;
-        for (int i = ilo_row; i <= ihi_row; ++i)
-          std::memcpy(row_px + static_cast<size_t>(i) * C, src.texel_at(cm.ci * i + cj, cm.ri * i + rj), C);
-      } else {
-        const double gx = g.xj * j + g.x0, gy = g.yj * j + g.y0;
-        switch (filter) {
-          case Filter::Nearest:
-            for (int i = ilo_row; i <= ihi_row; ++i) src.nearest(g.xi * i + gx, g.yi * i + gy, row_px + static_cast<size_t>(i) * C);
-            break;
-          case Filter::Bilinear:
-            for (int i = ilo_row; i <= ihi_row; ++i) src.bilinear(g.xi * i + gx, g.yi * i + gy, row_px + static_cast<size_t>(i) * C);
-            break;
-          case Filter::Bicubic:
-            for (int i = ilo_row; i <= ihi_row; ++i) src.bicubic(g.xi * i + gx, g.yi * i + gy, row_px + static_cast<size_t>(i) * C);
-            break;
-        }
-      }
-    }
-    for (int i = std::max(ihi_row + 1, blo); i <= bhi; ++i) border(i);
+    return true;
+  };
+  const auto near = [&](int i) { return E(0, i) > -r && E(1, i) > -r && E(2, i) > -r; };
+  int blo = wlo, bhi = whi, ilo_row = wlo, ihi_row = whi;
+  if (!span(ef.ei, rk, r, wlo, whi, near, blo, bhi)) return;
+  const bool has_interior = span(ef.ei, rk, 0.0, blo, bhi, inside, ilo_row, ihi_row);
+  if (!has_interior) {
+    ilo_row = bhi + 1;
+    ihi_row = bhi;
   }
+  const double cy = Hd - j - 0.5;
+  uint8_t* row_px = cv.img->at(0, j);
+  uint8_t* row_state = &cv.state[cv.index(0, j)];
+  float* row_dist = &cv.dist[cv.index(0, j)];
+  const auto border = [&](int i) {
+    const uint8_t s = row_state[i] & kCoverMask;
+    if (s == kInterior) return;
+    const double dd = std::max(std::max(std::max(-E(0, i), -E(1, i)), std::max(-E(2, i), 0.0)), win.box_dist(i + 0.5, cy));
+    if (!(dd < r) || (s == kBorder && row_dist[i] <= dd)) return;
+    row_state[i] = static_cast<uint8_t>(kBorder | written_state_bits);
+    row_dist[i] = static_cast<float>(dd);
+    uint8_t* dst = row_px + static_cast<size_t>(i) * C;
+    if (copy) {
+      std::memcpy(dst, src.texel_at(cm.ci * i + cm.cj * j + cm.c0, cm.ri * i + cm.rj * j + cm.r0), C);
+    } else if (m.extrapolate) {
+      src.sample(filter, g.xi * i + g.xj * j + g.x0, g.yi * i + g.yj * j + g.y0, dst);
+    } else {
+      const Vec2 p = closest_on_triangle(Vec2(i + 0.5, cy), o[0], o[1], o[2]);
+      const double u = A00 * p.x() + A01 * p.y() + t0, v = A10 * p.x() + A11 * p.y() + t1;
+      src.sample(filter, u - 0.5, Hi - v - 0.5, dst);
+    }
+  };
+  for (int i = blo; i < ilo_row; ++i) border(i);
+  if (ilo_row <= ihi_row) {
+    std::memset(row_state + ilo_row, kInterior | written_state_bits, static_cast<size_t>(ihi_row - ilo_row + 1));
+    if (copy) {
+      const long long cj = cm.cj * j + cm.c0, rj = cm.rj * j + cm.r0;
+      for (int i = ilo_row; i <= ihi_row; ++i)
+        std::memcpy(row_px + static_cast<size_t>(i) * C, src.texel_at(cm.ci * i + cj, cm.ri * i + rj), C);
+    } else {
+      const double gx = g.xj * j + g.x0, gy = g.yj * j + g.y0;
+      switch (filter) {
+        case Filter::Nearest:
+          for (int i = ilo_row; i <= ihi_row; ++i) src.nearest(g.xi * i + gx, g.yi * i + gy, row_px + static_cast<size_t>(i) * C);
+          break;
+        case Filter::Bilinear:
+          for (int i = ilo_row; i <= ihi_row; ++i) src.bilinear(g.xi * i + gx, g.yi * i + gy, row_px + static_cast<size_t>(i) * C);
+          break;
+        case Filter::Bicubic:
+          for (int i = ilo_row; i <= ihi_row; ++i) src.bicubic(g.xi * i + gx, g.yi * i + gy, row_px + static_cast<size_t>(i) * C);
+          break;
+      }
+    }
+  }
+  for (int i = std::max(ihi_row + 1, blo); i <= bhi; ++i) border(i);
+}
+
+/// Rasterises one face on the canvas. Interior texels (centre inside, top-left tie rule) are
+/// always written; border texels (centre within kBorderRadius) only where no interior texel is and
+/// no other triangle is nearer.
+template <int C>
+void render_face(const FaceJob& job, const Sampler<C>& src, Filter filter, Canvas& cv, PageStats& st) {
+  bool degenerate = false;
+  const double det = output_det(job.out, degenerate);
+  const TexelWindow win = texel_window(job.out, cv.w, cv.h);
+  if (degenerate) {
+    render_degenerate_face(job, src, filter, win, cv, st);
+    return;
+  }
+  const EdgeFunctions ef = edge_functions(job.out, det, cv.h);
+  const FaceMapping m = face_mapping(job, det, src.h, cv.h);
+  if (m.copy) st.faces_copied++;
+  else st.faces_resampled++;
+  // Along a row every edge function is monotone in i, so both the interior and the border are
+  // intervals: render_face_row finds them from the roots, then settles their ends with the exact
+  // predicates.
+  const int wlo = std::max(win.ilo, 0), whi = std::min(win.ihi, cv.w - 1);
+  for (int j = std::max(win.jlo, 0); j <= std::min(win.jhi, cv.h - 1); ++j)
+    render_face_row(j, wlo, whi, job, src, filter, win, ef, m, cv);
 }
 
 // ------------------------------------------------------------------------------------------------
