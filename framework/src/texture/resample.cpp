@@ -599,155 +599,151 @@ std::array<float, 16> cell_matrix(int mask) {
 /// a window) whatever the page size.
 constexpr int kFitWindow = 1024;
 
-/// The fit over the fitted texels of the window [X0, X1) x [Y0, Y1) (texel indices, row 0 at the
-/// top). Returns the number of texels fitted.
-template <int C>
-size_t fit_window(const std::vector<FaceJob>& jobs, const std::vector<const Image*>& inputs, int iterations,
-                  Canvas& cv, int X0, int Y0, int X1, int Y1) {
-  const int W = cv.w, H = cv.h;
+/// The unknowns of one fit window [X0, X1) x [Y0, Y1) (texel indices, row 0 at the top): the
+/// texels written by a resampled face (interior or border) and not copied, numbered in raster order.
+struct FitUnknowns {
+  int X0 = 0, Y0 = 0, X1 = 0, Y1 = 0;
+  std::vector<int> uid;         ///< per texel of the window: its unknown's number, or -1 (fixed)
+  std::vector<size_t> texel_of; ///< per unknown: its texel's index on the canvas
+
+  /// The unknown's number of texel (x, y) of the page; -1 when fixed or outside the window.
+  int at(int x, int y) const {
+    return x < X0 || x >= X1 || y < Y0 || y >= Y1
+               ? -1
+               : uid[static_cast<size_t>(y - Y0) * static_cast<size_t>(X1 - X0) + static_cast<size_t>(x - X0)];
+  }
+};
+
+/// The fitted texels of window [X0, X1) x [Y0, Y1) of the canvas.
+FitUnknowns collect_unknowns(const Canvas& cv, int X0, int Y0, int X1, int Y1) {
+  FitUnknowns u;
+  u.X0 = X0;
+  u.Y0 = Y0;
+  u.X1 = X1;
+  u.Y1 = Y1;
   const int ww = X1 - X0, wh = Y1 - Y0;
-  // Fitted texels of the window: written by a resampled face (interior or border), not copied.
-  std::vector<int> uid(static_cast<size_t>(ww) * static_cast<size_t>(wh), -1);
-  std::vector<size_t> texel_of;
+  u.uid.assign(static_cast<size_t>(ww) * static_cast<size_t>(wh), -1);
   for (int y = Y0; y < Y1; ++y)
     for (int x = X0; x < X1; ++x) {
       const size_t t = cv.index(x, y);
       if ((cv.state[t] & kCoverMask) && !(cv.state[t] & kCopied)) {
-        uid[static_cast<size_t>(y - Y0) * static_cast<size_t>(ww) + static_cast<size_t>(x - X0)] = static_cast<int>(texel_of.size());
-        texel_of.push_back(t);
+        u.uid[static_cast<size_t>(y - Y0) * static_cast<size_t>(ww) + static_cast<size_t>(x - X0)] = static_cast<int>(u.texel_of.size());
+        u.texel_of.push_back(t);
       }
     }
-  const size_t U = texel_of.size();
-  if (U == 0) return 0;
-  auto uid_at = [&](int x, int y) {
-    return x < X0 || x >= X1 || y < Y0 || y >= Y1
-               ? -1
-               : uid[static_cast<size_t>(y - Y0) * static_cast<size_t>(ww) + static_cast<size_t>(x - X0)];
-  };
+  return u;
+}
 
-  // Cells: cell (m, q) spans grid [m, m+1] x [q, q+1] (grid: texel centres at integers, row index
-  // downwards); its corners clamp to the page (clamp-to-edge reads). The window's cells are those
-  // with a corner in it: m in [X0-1, X1-1], q in [Y0-1, Y1-1], within [-1, W-1] x [-1, H-1].
-  const long long cm0 = std::max(X0 - 1, -1), cm1 = std::min(X1 - 1, W - 1);
-  const long long cq0 = std::max(Y0 - 1, -1), cq1 = std::min(Y1 - 1, H - 1);
-  const size_t cw = static_cast<size_t>(cm1 - cm0 + 1);
-  std::vector<uint8_t> cmask(cw * static_cast<size_t>(cq1 - cq0 + 1), 0);
-  auto corner_xy = [&](long long m, long long q, int k, int& x, int& y) {
+/// The cells of a fit window. Cell (m, q) spans grid [m, m+1] x [q, q+1] (grid: texel centres at
+/// integers, row index downwards); its corners clamp to the page (clamp-to-edge reads). The
+/// window's cells are those with a corner in it: m in [X0-1, X1-1], q in [Y0-1, Y1-1], within
+/// [-1, W-1] x [-1, H-1]. mask: per cell, the Gauss points (bit 2b + a) some face covers.
+struct FitCells {
+  int W = 0, H = 0;
+  long long cm0 = 0, cm1 = 0, cq0 = 0, cq1 = 0;
+  size_t cw = 0;
+  std::vector<uint8_t> mask;
+
+  FitCells(int w, int h, int X0, int Y0, int X1, int Y1) : W(w), H(h) {
+    cm0 = std::max(X0 - 1, -1);
+    cm1 = std::min(X1 - 1, W - 1);
+    cq0 = std::max(Y0 - 1, -1);
+    cq1 = std::min(Y1 - 1, H - 1);
+    cw = static_cast<size_t>(cm1 - cm0 + 1);
+    mask.assign(cw * static_cast<size_t>(cq1 - cq0 + 1), 0);
+  }
+  /// Texel of corner k (index 2 dy + dx) of cell (m, q), clamped to the page.
+  void corner_xy(long long m, long long q, int k, int& x, int& y) const {
     x = clampi(m + (k & 1), W - 1);
     y = clampi(q + (k >> 1), H - 1);
+  }
+};
+
+/// Adds face `job`'s share of the fit's right-hand side: at each Gauss point of the window's cells
+/// inside the face (and not yet taken by an earlier face: the point's bit in cells.mask), the input
+/// read bilinearly through the face map, weighted by the bilinear weights of the cell's unknown
+/// corners. Degenerate faces and faces missing the window add nothing.
+template <int C>
+void add_face_to_rhs(const FaceJob& job, const std::vector<const Image*>& inputs, const FitUnknowns& unknowns,
+                     FitCells& cells, std::vector<float>& rhs) {
+  const int H = cells.H;
+  const auto& o = job.out;
+  // Corners in grid coordinates; skip faces whose box misses the window's cells.
+  std::array<Vec2, 3> g;
+  for (int k = 0; k < 3; ++k) g[static_cast<size_t>(k)] = Vec2(o[static_cast<size_t>(k)].x() - 0.5, H - o[static_cast<size_t>(k)].y() - 0.5);
+  const double gxmin = std::min({g[0].x(), g[1].x(), g[2].x()}), gxmax = std::max({g[0].x(), g[1].x(), g[2].x()});
+  const double gymin = std::min({g[0].y(), g[1].y(), g[2].y()}), gymax = std::max({g[0].y(), g[1].y(), g[2].y()});
+  const long long m0 = std::max<long long>(cells.cm0, static_cast<long long>(std::floor(gxmin)));
+  const long long m1 = std::min<long long>(cells.cm1, static_cast<long long>(std::floor(gxmax)));
+  const long long q0 = std::max<long long>(cells.cq0, static_cast<long long>(std::floor(gymin)));
+  const long long q1 = std::min<long long>(cells.cq1, static_cast<long long>(std::floor(gymax)));
+  if (m0 > m1 || q0 > q1) return;
+  bool degenerate = false;
+  const double det = output_det(o, degenerate);
+  if (degenerate) return;
+  const Affine af = face_affine(o, job.in, det);
+  const Image& in = *inputs[static_cast<size_t>(job.in_page)];
+  Sampler<C> src;
+  src.px = in.pixels.data();
+  src.w = in.width;
+  src.h = in.height;
+  src.repeat = job.repeat;
+  const double sgn = det > 0 ? -1.0 : 1.0;  // the y flip reverses the orientation
+  auto inside = [&](double px, double py) {
+    for (int k = 0; k < 3; ++k) {
+      const Vec2& a = g[static_cast<size_t>(k)];
+      const Vec2& b = g[static_cast<size_t>((k + 1) % 3)];
+      if (sgn * ((b.x() - a.x()) * (py - a.y()) - (b.y() - a.y()) * (px - a.x())) < 0) return false;
+    }
+    return true;
   };
-  std::vector<float> rhs(U * C, 0.f);
-  for (const FaceJob& job : jobs) {
-    const auto& o = job.out;
-    // Corners in grid coordinates; skip faces whose box misses the window's cells.
-    std::array<Vec2, 3> g;
-    for (int k = 0; k < 3; ++k) g[static_cast<size_t>(k)] = Vec2(o[static_cast<size_t>(k)].x() - 0.5, H - o[static_cast<size_t>(k)].y() - 0.5);
-    const double gxmin = std::min({g[0].x(), g[1].x(), g[2].x()}), gxmax = std::max({g[0].x(), g[1].x(), g[2].x()});
-    const double gymin = std::min({g[0].y(), g[1].y(), g[2].y()}), gymax = std::max({g[0].y(), g[1].y(), g[2].y()});
-    const long long m0 = std::max<long long>(cm0, static_cast<long long>(std::floor(gxmin)));
-    const long long m1 = std::min<long long>(cm1, static_cast<long long>(std::floor(gxmax)));
-    const long long q0 = std::max<long long>(cq0, static_cast<long long>(std::floor(gymin)));
-    const long long q1 = std::min<long long>(cq1, static_cast<long long>(std::floor(gymax)));
-    if (m0 > m1 || q0 > q1) continue;
-    bool degenerate = false;
-    const double det = output_det(o, degenerate);
-    if (degenerate) continue;
-    const Affine af = face_affine(o, job.in, det);
-    const Image& in = *inputs[static_cast<size_t>(job.in_page)];
-    Sampler<C> src;
-    src.px = in.pixels.data();
-    src.w = in.width;
-    src.h = in.height;
-    src.repeat = job.repeat;
-    const double sgn = det > 0 ? -1.0 : 1.0;  // the y flip reverses the orientation
-    auto inside = [&](double px, double py) {
-      for (int k = 0; k < 3; ++k) {
-        const Vec2& a = g[static_cast<size_t>(k)];
-        const Vec2& b = g[static_cast<size_t>((k + 1) % 3)];
-        if (sgn * ((b.x() - a.x()) * (py - a.y()) - (b.y() - a.y()) * (px - a.x())) < 0) return false;
+  const double Hi = in.height;
+  for (long long q = q0; q <= q1; ++q)
+    for (long long m = m0; m <= m1; ++m) {
+      int ids[4];
+      bool touches = false;
+      for (int k = 0; k < 4; ++k) {
+        int x, y;
+        cells.corner_xy(m, q, k, x, y);
+        ids[k] = unknowns.at(x, y);
+        touches = touches || ids[k] >= 0;
       }
-      return true;
-    };
-    const double Hi = in.height;
-    for (long long q = q0; q <= q1; ++q)
-      for (long long m = m0; m <= m1; ++m) {
-        int ids[4];
-        bool touches = false;
-        for (int k = 0; k < 4; ++k) {
-          int x, y;
-          corner_xy(m, q, k, x, y);
-          ids[k] = uid_at(x, y);
-          touches = touches || ids[k] >= 0;
-        }
-        if (!touches) continue;
-        uint8_t& cm = cmask[static_cast<size_t>(q - cq0) * cw + static_cast<size_t>(m - cm0)];
-        for (int b = 0; b < 2; ++b)
-          for (int a = 0; a < 2; ++a) {
-            const int bit = 1 << (2 * b + a);
-            const double px = static_cast<double>(m) + kGauss[a], py = static_cast<double>(q) + kGauss[b];
-            if ((cm & bit) || !inside(px, py)) continue;
-            cm = static_cast<uint8_t>(cm | bit);
-            const double ox = px + 0.5, oy = H - py - 0.5;
-            const double u = af.A00 * ox + af.A01 * oy + af.t0, v = af.A10 * ox + af.A11 * oy + af.t1;
-            float target[C];
-            src.bilinear_f(u - 0.5, Hi - v - 0.5, target);
-            const double wx[2] = {1 - kGauss[a], kGauss[a]}, wy[2] = {1 - kGauss[b], kGauss[b]};
-            for (int k = 0; k < 4; ++k) {
-              if (ids[k] < 0) continue;
-              const float w = static_cast<float>(wx[k & 1] * wy[k >> 1]);
-              for (int c = 0; c < C; ++c) rhs[static_cast<size_t>(ids[k]) * C + static_cast<size_t>(c)] += w * target[c];
-            }
+      if (!touches) continue;
+      uint8_t& cm = cells.mask[static_cast<size_t>(q - cells.cq0) * cells.cw + static_cast<size_t>(m - cells.cm0)];
+      for (int b = 0; b < 2; ++b)
+        for (int a = 0; a < 2; ++a) {
+          const int bit = 1 << (2 * b + a);
+          const double px = static_cast<double>(m) + kGauss[a], py = static_cast<double>(q) + kGauss[b];
+          if ((cm & bit) || !inside(px, py)) continue;
+          cm = static_cast<uint8_t>(cm | bit);
+          const double ox = px + 0.5, oy = H - py - 0.5;
+          const double u = af.A00 * ox + af.A01 * oy + af.t0, v = af.A10 * ox + af.A11 * oy + af.t1;
+          float target[C];
+          src.bilinear_f(u - 0.5, Hi - v - 0.5, target);
+          const double wx[2] = {1 - kGauss[a], kGauss[a]}, wy[2] = {1 - kGauss[b], kGauss[b]};
+          for (int k = 0; k < 4; ++k) {
+            if (ids[k] < 0) continue;
+            const float w = static_cast<float>(wx[k & 1] * wy[k >> 1]);
+            for (int c = 0; c < C; ++c) rhs[static_cast<size_t>(ids[k]) * C + static_cast<size_t>(c)] += w * target[c];
           }
-      }
-  }
+        }
+    }
+}
 
-  // Active cells: corner ids (-1: fixed texel) and the cell's matrix; fixed corners move to the RHS.
-  std::array<std::array<float, 16>, 16> mats;
-  for (int mask = 0; mask < 16; ++mask) mats[static_cast<size_t>(mask)] = cell_matrix(mask);
+/// The fit's normal matrix K = sum over active cells of G^T M G + lambda I, on the fitted texels.
+struct FitSystem {
   struct Cell {
-    int id[4];
-    uint8_t mask;
+    int id[4];     ///< corner unknowns (-1: a fixed texel)
+    uint8_t mask;  ///< Gauss points covered: selects the cell's matrix
   };
+  std::array<std::array<float, 16>, 16> mats;  ///< cell_matrix of every mask
   std::vector<Cell> cells;
-  std::vector<float> diag(U, 0.f);
-  const uint8_t* px = cv.img->pixels.data();
-  for (size_t ci = 0; ci < cmask.size(); ++ci) {
-    if (!cmask[ci]) continue;
-    const long long m = static_cast<long long>(ci % cw) + cm0, q = static_cast<long long>(ci / cw) + cq0;
-    Cell cell;
-    cell.mask = cmask[ci];
-    size_t cidx[4];
-    for (int k = 0; k < 4; ++k) {
-      int x, y;
-      corner_xy(m, q, k, x, y);
-      cidx[k] = cv.index(x, y);
-      cell.id[k] = uid_at(x, y);
-    }
-    const std::array<float, 16>& M = mats[cell.mask];
-    for (int k = 0; k < 4; ++k) {
-      if (cell.id[k] < 0) continue;
-      for (int l = 0; l < 4; ++l) {
-        const float mkl = M[static_cast<size_t>(4 * k + l)];
-        if (cell.id[l] == cell.id[k]) diag[static_cast<size_t>(cell.id[k])] += mkl;
-        if (cell.id[l] >= 0) continue;
-        const uint8_t* f = px + cidx[l] * C;
-        for (int c = 0; c < C; ++c) rhs[static_cast<size_t>(cell.id[k]) * C + static_cast<size_t>(c)] -= mkl * static_cast<float>(f[c]);
-      }
-    }
-    cells.push_back(cell);
-  }
-  cmask = std::vector<uint8_t>();
-  const float lambda = kFitRegularisation * 16.f / 9.f;
-  std::vector<float> x(U * C);
-  for (size_t u = 0; u < U; ++u)
-    for (int c = 0; c < C; ++c) {
-      x[u * C + static_cast<size_t>(c)] = static_cast<float>(px[texel_of[u] * C + static_cast<size_t>(c)]);
-      rhs[u * C + static_cast<size_t>(c)] += lambda * x[u * C + static_cast<size_t>(c)];
-    }
-  for (float& d : diag) d += lambda;
+  std::vector<float> diag;  ///< K's diagonal (the Jacobi preconditioner)
+  float lambda = 0;
 
-  // K v = sum over cells of G^T M G v + lambda v, on the fitted texels.
-  auto apply = [&](const std::vector<float>& v, std::vector<float>& out) {
+  /// out = K v (both U * C floats).
+  template <int C>
+  void apply(const std::vector<float>& v, std::vector<float>& out) const {
     for (size_t i = 0; i < out.size(); ++i) out[i] = lambda * v[i];
     for (const Cell& cell : cells) {
       const std::array<float, 16>& M = mats[cell.mask];
@@ -763,11 +759,55 @@ size_t fit_window(const std::vector<FaceJob>& jobs, const std::vector<const Imag
         for (int c = 0; c < C; ++c) out[static_cast<size_t>(cell.id[k]) * C + static_cast<size_t>(c)] += acc[c];
       }
     }
-  };
-  // Jacobi-preconditioned conjugate gradients; r starts as rhs - K x (rhs is not needed after).
+  }
+};
+
+/// Builds the system of the window's active cells: each cell's corner unknowns and matrix, K's
+/// diagonal, and the fixed corners' share moved to the right-hand side (rhs -= M f).
+template <int C>
+FitSystem assemble_system(const Canvas& cv, const FitUnknowns& unknowns, const FitCells& cells, std::vector<float>& rhs) {
+  FitSystem sys;
+  for (int mask = 0; mask < 16; ++mask) sys.mats[static_cast<size_t>(mask)] = cell_matrix(mask);
+  sys.diag.assign(unknowns.texel_of.size(), 0.f);
+  const uint8_t* px = cv.img->pixels.data();
+  for (size_t ci = 0; ci < cells.mask.size(); ++ci) {
+    if (!cells.mask[ci]) continue;
+    const long long m = static_cast<long long>(ci % cells.cw) + cells.cm0, q = static_cast<long long>(ci / cells.cw) + cells.cq0;
+    FitSystem::Cell cell;
+    cell.mask = cells.mask[ci];
+    size_t cidx[4];
+    for (int k = 0; k < 4; ++k) {
+      int x, y;
+      cells.corner_xy(m, q, k, x, y);
+      cidx[k] = cv.index(x, y);
+      cell.id[k] = unknowns.at(x, y);
+    }
+    const std::array<float, 16>& M = sys.mats[cell.mask];
+    for (int k = 0; k < 4; ++k) {
+      if (cell.id[k] < 0) continue;
+      for (int l = 0; l < 4; ++l) {
+        const float mkl = M[static_cast<size_t>(4 * k + l)];
+        if (cell.id[l] == cell.id[k]) sys.diag[static_cast<size_t>(cell.id[k])] += mkl;
+        if (cell.id[l] >= 0) continue;
+        const uint8_t* f = px + cidx[l] * C;
+        for (int c = 0; c < C; ++c) rhs[static_cast<size_t>(cell.id[k]) * C + static_cast<size_t>(c)] -= mkl * static_cast<float>(f[c]);
+      }
+    }
+    sys.cells.push_back(cell);
+  }
+  return sys;
+}
+
+/// Solves K x = rhs by Jacobi-preconditioned conjugate gradients from the start value x, for at
+/// most `iterations` steps or until the residual's norm falls to 1e-4 of its start. rhs is used
+/// as the residual (its content is lost).
+template <int C>
+void solve_fit(const FitSystem& sys, std::vector<float>& rhs, std::vector<float>& x, int iterations) {
+  const size_t n = x.size();
+  const std::vector<float>& diag = sys.diag;
   std::vector<float>& r = rhs;
-  std::vector<float> p(U * C), Kp(U * C);
-  apply(x, Kp);
+  std::vector<float> p(n), Kp(n);
+  sys.apply<C>(x, Kp);
   double rz = 0, r0 = 0;
   for (size_t i = 0; i < r.size(); ++i) {
     r[i] -= Kp[i];
@@ -776,7 +816,7 @@ size_t fit_window(const std::vector<FaceJob>& jobs, const std::vector<const Imag
     r0 += static_cast<double>(r[i]) * r[i];
   }
   for (int it = 0; it < iterations && rz > 0; ++it) {
-    apply(p, Kp);
+    sys.apply<C>(p, Kp);
     double pKp = 0;
     for (size_t i = 0; i < p.size(); ++i) pKp += static_cast<double>(p[i]) * Kp[i];
     if (!(pKp > 0)) break;
@@ -793,9 +833,35 @@ size_t fit_window(const std::vector<FaceJob>& jobs, const std::vector<const Imag
     rz = rz_new;
     for (size_t i = 0; i < p.size(); ++i) p[i] = r[i] / diag[i / C] + beta * p[i];
   }
+}
+
+/// The fit over the fitted texels of the window [X0, X1) x [Y0, Y1) (texel indices, row 0 at the
+/// top). Returns the number of texels fitted.
+template <int C>
+size_t fit_window(const std::vector<FaceJob>& jobs, const std::vector<const Image*>& inputs, int iterations,
+                  Canvas& cv, int X0, int Y0, int X1, int Y1) {
+  const FitUnknowns unknowns = collect_unknowns(cv, X0, Y0, X1, Y1);
+  const size_t U = unknowns.texel_of.size();
+  if (U == 0) return 0;
+  FitCells cells(cv.w, cv.h, X0, Y0, X1, Y1);
+  std::vector<float> rhs(U * C, 0.f);
+  for (const FaceJob& job : jobs) add_face_to_rhs<C>(job, inputs, unknowns, cells, rhs);
+  // Fixed corners move to the right-hand side; the Tikhonov term pulls towards the sampled value.
+  FitSystem sys = assemble_system<C>(cv, unknowns, cells, rhs);
+  cells.mask = std::vector<uint8_t>();
+  sys.lambda = kFitRegularisation * 16.f / 9.f;
+  const uint8_t* px = cv.img->pixels.data();
+  std::vector<float> x(U * C);
+  for (size_t u = 0; u < U; ++u)
+    for (int c = 0; c < C; ++c) {
+      x[u * C + static_cast<size_t>(c)] = static_cast<float>(px[unknowns.texel_of[u] * C + static_cast<size_t>(c)]);
+      rhs[u * C + static_cast<size_t>(c)] += sys.lambda * x[u * C + static_cast<size_t>(c)];
+    }
+  for (float& d : sys.diag) d += sys.lambda;
+  solve_fit<C>(sys, rhs, x, iterations);
   uint8_t* out = cv.img->pixels.data();
   for (size_t u = 0; u < U; ++u)
-    for (int c = 0; c < C; ++c) out[texel_of[u] * C + static_cast<size_t>(c)] = to_byte(x[u * C + static_cast<size_t>(c)]);
+    for (int c = 0; c < C; ++c) out[unknowns.texel_of[u] * C + static_cast<size_t>(c)] = to_byte(x[u * C + static_cast<size_t>(c)]);
   return U;
 }
 
@@ -1124,12 +1190,13 @@ bool shift_into_first_period(std::array<Vec2, 3>& in, const Page& page) {
 /// Finite and within 1e9 texels (keeps every product of coordinates far from overflow).
 bool sane(const Vec2& v) { return std::abs(v.x()) < 1e9 && std::abs(v.y()) < 1e9; }
 
-}  // namespace
+// resample_atlas's steps: validate, convert the inputs, list each output page's faces, prepare
+// blank pages, render them in parallel.
 
-std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Image>& input_pages,
-                                  const Atlas& atlas, const Layout& layout, const ResampleOptions& options,
-                                  ResampleStats* stats, const ProgressFn& progress) {
-  // ---- validation
+/// Throws StageError ("texture.resample: ...") unless the arguments agree: one image per mesh page, one atlas entry per
+/// face, fit_iterations >= 1 and dilate_width >= 0 when used, output pages of 1..kMaxPageSide.
+void check_arguments(const TexturedMesh& mesh, const std::vector<Image>& input_pages, const Atlas& atlas,
+                     const Layout& layout, const ResampleOptions& options) {
   if (input_pages.size() != mesh.pages.size()) {
     std::ostringstream s;
     s << input_pages.size() << " input page images for " << mesh.pages.size() << " mesh pages";
@@ -1147,6 +1214,12 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
       fail("output page " + std::to_string(p) + " has size " + std::to_string(ps.width) + "x" +
            std::to_string(ps.height) + " (expected 1.." + std::to_string(kMaxPageSide) + ")");
   }
+}
+
+/// Throws StageError naming the face (and its OBJ line) unless every textured face has a
+/// chart, an input page, an output page, wedges and texcoords in range and sane UVs on both sides.
+/// Returns which input pages some face reads.
+std::vector<char> check_faces(const TexturedMesh& mesh, const Atlas& atlas, const Layout& layout) {
   std::vector<char> page_used(mesh.pages.size(), 0);
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     const Face& F = mesh.faces[f];
@@ -1170,6 +1243,13 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
     }
     page_used[static_cast<size_t>(F.page)] = 1;
   }
+  return page_used;
+}
+
+/// Throws StageError unless every used (or non-empty) input page is a consistent image of 1..4
+/// channels of its mesh page's size. Returns the output channel count: the largest input's (3
+/// when no page is used).
+int check_input_pages(const TexturedMesh& mesh, const std::vector<Image>& input_pages, const std::vector<char>& page_used) {
   int channels = 0;
   for (size_t p = 0; p < input_pages.size(); ++p) {
     const Image& im = input_pages[p];
@@ -1185,9 +1265,14 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
     channels = std::max(channels, im.channels);
   }
   if (channels == 0) channels = 3;
+  return channels;
+}
 
-  // ---- inputs at the output channel count
-  std::vector<Image> converted(input_pages.size());
+/// The used input pages at `channels` channels: a pointer to the caller's image when it has them
+/// already, else to its conversion stored in `converted` (which must outlive the pointers).
+std::vector<const Image*> inputs_at_channels(const std::vector<Image>& input_pages, const std::vector<char>& page_used,
+                                             int channels, std::vector<Image>& converted) {
+  converted.assign(input_pages.size(), Image());
   std::vector<const Image*> inputs(input_pages.size(), nullptr);
   for (size_t p = 0; p < input_pages.size(); ++p) {
     if (!page_used[p]) continue;
@@ -1198,10 +1283,14 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
       inputs[p] = &converted[p];
     }
   }
+  return inputs;
+}
 
-  // ---- faces per output page, in face order
+/// The faces of each output page, in face order, with their output and input triangles (texels)
+/// and the input page's addressing; a face within one period of a repeating page is moved into it
+/// and read with edge clamping. Adds the number of faces to num_jobs.
+std::vector<PageTask> page_tasks(const TexturedMesh& mesh, const Atlas& atlas, const Layout& layout, size_t& num_jobs) {
   std::vector<PageTask> tasks(layout.pages.size());
-  size_t num_jobs = 0;
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     const int chart = atlas.face_chart[f];
     if (chart < 0) continue;
@@ -1220,10 +1309,13 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
     tasks[static_cast<size_t>(layout.chart_page[static_cast<size_t>(chart)])].jobs.push_back(job);
     ++num_jobs;
   }
+  return tasks;
+}
 
-  // ---- output pages
+/// The output pages of `layout` with `channels` channels, every texel the background (grey-alpha
+/// takes its first and fourth bytes). Adds the pages' gutter-fill progress units to fill_units.
+std::vector<Image> blank_pages(const Layout& layout, int channels, const uint8_t* background, size_t& fill_units) {
   std::vector<Image> out(layout.pages.size());
-  size_t fill_units = 0;
   for (size_t p = 0; p < out.size(); ++p) {
     Image& im = out[p];
     im.width = layout.pages[p].width;
@@ -1232,23 +1324,23 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
     const size_t n = static_cast<size_t>(im.width) * static_cast<size_t>(im.height);
     im.pixels.resize(n * static_cast<size_t>(channels));
     uint8_t bg[4];
-    const uint8_t* b = options.background;
+    const uint8_t* b = background;
     if (channels == 1) bg[0] = b[0];
     else if (channels == 2) { bg[0] = b[0]; bg[1] = b[3]; }
     else std::memcpy(bg, b, static_cast<size_t>(channels));
     for (size_t t = 0; t < n; ++t) std::memcpy(&im.pixels[t * static_cast<size_t>(channels)], bg, static_cast<size_t>(channels));
     fill_units += n / kFillTexelsPerUnit;
   }
+  return out;
+}
 
-  // ---- render, pages in parallel; the calling thread reports progress
-  Progress prog;
-  prog.fn = &progress;
-  prog.owner = std::this_thread::get_id();
-  prog.total = static_cast<double>(std::max<size_t>(num_jobs + fill_units, 1));
-  prog.report(0);
-  if (prog.cancelled) throw Cancelled();
-
-  std::vector<ResampleStats> page_stats(out.size());
+/// Renders every page of `out` (page p from tasks[p]) on the framework's threads, one page per
+/// thread, biggest first; the calling thread also reports progress. Rethrows the first error;
+/// stops early (prog.cancelled) when the progress callback cancels. The texels depend on neither
+/// the thread count nor the order.
+void render_pages(const std::vector<PageTask>& tasks, const std::vector<const Image*>& inputs,
+                  const ResampleOptions& options, std::vector<Image>& out, std::vector<ResampleStats>& page_stats,
+                  Progress& prog) {
   // note: the biggest pages first (by texels, then faces), so the last page to finish is a small
   // one; each page is rendered by one thread and depends on nothing else, so the order does not
   // change any texel.
@@ -1306,6 +1398,31 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
   }
   for (auto& t : threads) t.join();
   if (error) std::rethrow_exception(error);
+}
+
+}  // namespace
+
+std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Image>& input_pages,
+                                  const Atlas& atlas, const Layout& layout, const ResampleOptions& options,
+                                  ResampleStats* stats, const ProgressFn& progress) {
+  check_arguments(mesh, input_pages, atlas, layout, options);
+  const std::vector<char> page_used = check_faces(mesh, atlas, layout);
+  const int channels = check_input_pages(mesh, input_pages, page_used);
+  std::vector<Image> converted;
+  const std::vector<const Image*> inputs = inputs_at_channels(input_pages, page_used, channels, converted);
+  size_t num_jobs = 0, fill_units = 0;
+  const std::vector<PageTask> tasks = page_tasks(mesh, atlas, layout, num_jobs);
+  std::vector<Image> out = blank_pages(layout, channels, options.background, fill_units);
+
+  // Render, pages in parallel; the calling thread reports progress.
+  Progress prog;
+  prog.fn = &progress;
+  prog.owner = std::this_thread::get_id();
+  prog.total = static_cast<double>(std::max<size_t>(num_jobs + fill_units, 1));
+  prog.report(0);
+  if (prog.cancelled) throw Cancelled();
+  std::vector<ResampleStats> page_stats(out.size());
+  render_pages(tasks, inputs, options, out, page_stats, prog);
   if (prog.cancelled) throw Cancelled();
   prog.report(1.0);
   if (prog.cancelled) throw Cancelled();
