@@ -653,52 +653,112 @@ void absorb_enclosed(const Units& U, const Params& p, std::vector<int>& region, 
   rep["enclosed_groups"] = groups;
 }
 
-/// Refinement (coplanar grouping, our addition; docs/detectors.md refinement 9). Facades come out of
-/// growth cut into several coplanar regions (at pilaster bands, tile cracks, bay windows) with small
-/// speckle regions between them. Two steps, repeated until nothing changes:
-///  (a) grouping: two regions with at least coplanar_min_faces faces each ("large"), adjacent, or
-///      both touching a large region smaller than both, or both bordering one connected cluster of
-///      small regions (a speckle strip between two facade pieces), join when their fitted
-///      normals are within coplanar_angle, the RMS residual of their union's plane fit is at most
-///      coplanar_max_rms mean edge lengths, and each one's offset from the union's plane (the RMS
-///      distance of its surface to that plane beyond its own residual: the part due to tilt and
-///      shift) is at most coplanar_max_offset mean edge lengths. Best-fitting pairs first; groups
-///      are refitted from summed moments after every join.
-///  (b) speckle: a region with fewer than coplanar_min_faces faces joins the neighbouring large
-///      region (at least coplanar_min_faces faces and more than 1/speckle_max_fraction times its
-///      faces) whose plane it lies on best: normal within speckle_angle and the smallest RMS distance
-///      of its surface to the plane, at most speckle_max_distance mean edge lengths.
-/// A wall and a roof (90 degrees) or the ground and a facade never pass the angle tests; a tree
-/// crown fails the residual test (a) and is too far from any plane for (b).
-void group_coplanar(const Units& U, const Params& p, std::vector<int>& region, int& n, json& rep) {
-  const RegionSet rs = aggregate(U, region, n);
-  std::vector<PlaneMoments> m = rs.m;
-  std::vector<Vec3> smooth = rs.smooth;
-  std::vector<std::map<int, double>> nbr = rs.nbr;  // keys may be stale ids: resolve with find
-  UnionFind uf(static_cast<size_t>(n));
-  const double offset_tol = p.coplanar_max_offset * p.edge, rms_tol = p.coplanar_max_rms * p.edge;
-  const double speckle_tol = p.speckle_max_distance * p.edge;
-  auto large = [&](int r) { return m[static_cast<size_t>(r)].faces >= p.coplanar_min_faces; };
-  // A region whose face normals do not agree (a tree crown, clutter) has no plane to group by.
-  auto planar = [&](int r) { return large(r) && coherent(m[static_cast<size_t>(r)], p); };
-  auto normal_of = [&](int r, const PlaneFit& f) {
-    return reliable_normal(m[static_cast<size_t>(r)], f, smooth[static_cast<size_t>(r)], p);
-  };
-  size_t rej_angle = 0, rej_rms = 0, rej_offset = 0;  // candidate pairs failing each test of (a)
-  // Largest offset of the two parts from their union's plane, or a negative value when (a) fails.
-  auto coplanar_cost = [&](int a, int b) {
-    const PlaneMoments& ma = m[static_cast<size_t>(a)];
-    const PlaneMoments& mb = m[static_cast<size_t>(b)];
+/// group_coplanar's state: the regions' summed plane moments, smoothed normals and shared borders,
+/// joined through a union-find (ids are the regions' at the start; a group is named by its root),
+/// with the tests of steps (a) and (b) and their counters.
+class CoplanarGrouping {
+ public:
+  CoplanarGrouping(const Units& U, const Params& p, const std::vector<int>& region, int n)
+      : p_(p), n_(n), uf_(static_cast<size_t>(n)) {
+    const RegionSet rs = aggregate(U, region, n);
+    m_ = rs.m;
+    smooth_ = rs.smooth;
+    nbr_ = rs.nbr;  // keys may be stale ids: resolve with find
+    offset_tol_ = p.coplanar_max_offset * p.edge;
+    rms_tol_ = p.coplanar_max_rms * p.edge;
+    speckle_tol_ = p.speckle_max_distance * p.edge;
+  }
+
+  /// Step (a): joins coplanar pairs of candidates, best-fitting first, each pair re-tested on the
+  /// current groups. Returns whether any pair joined.
+  bool group_pairs() {
+    std::vector<std::tuple<double, int, int, bool>> pairs = candidate_pairs();
+    std::sort(pairs.begin(), pairs.end());
+    bool changed = false;
+    for (const auto& [c0, a0, b0, bridge] : pairs) {
+      int a = uf_.find(a0), b = uf_.find(b0);
+      if (a == b || coplanar_cost(a, b) < 0) continue;
+      if (m_[static_cast<size_t>(a)].faces < m_[static_cast<size_t>(b)].faces) std::swap(a, b);
+      join(a, b);
+      ++grouped_;
+      bridged_ += bridge;
+      changed = true;
+    }
+    return changed;
+  }
+
+  /// Step (b): each small group, smallest first, joins the planar large neighbour (much larger than
+  /// it) whose plane it lies on best, within speckle_angle and speckle_max_distance. Returns
+  /// whether any group joined.
+  bool absorb_speckle() {
+    std::vector<int> small;
+    for (int r = 0; r < n_; ++r)
+      if (uf_.find(r) == r && !large(r)) small.push_back(r);
+    std::stable_sort(small.begin(), small.end(), [&](int a, int b) {
+      return m_[static_cast<size_t>(a)].faces < m_[static_cast<size_t>(b)].faces;
+    });
+    bool changed = false;
+    for (int s : small) {
+      if (uf_.find(s) != s || large(s)) continue;
+      const PlaneMoments& ms = m_[static_cast<size_t>(s)];
+      const Vec3 ns = normal_of(s, fit_plane(ms));
+      int best = -1;
+      double best_d = 0;
+      for (const auto& [t, l] : neighbours(s)) {
+        if (!planar(t) || !(ms.faces < p_.speckle_max_fraction * m_[static_cast<size_t>(t)].faces)) continue;
+        const PlaneFit ft = fit_plane(m_[static_cast<size_t>(t)]);
+        if (!ft.valid) continue;
+        const Vec3 nt = normal_of(t, ft);
+        const double d = plane_rms_distance(ms, ft.centroid, nt);
+        if (normal_angle(ns, nt) >= p_.speckle_angle || d > speckle_tol_ || (best >= 0 && d >= best_d)) continue;
+        best = t;
+        best_d = d;
+      }
+      if (best < 0) continue;
+      speckle_faces_ += static_cast<size_t>(ms.faces);
+      join(best, s);
+      ++speckles_;
+      changed = true;
+    }
+    return changed;
+  }
+
+  /// Relabels `region` by group (compacted to 0..n-1) and writes the counters into rep.
+  void finish(std::vector<int>& region, int& n, size_t passes, json& rep) {
+    for (int& r : region) r = uf_.find(r);
+    n = compact_labels(region);
+    rep["coplanar_joins"] = grouped_;
+    rep["coplanar_joins_across_speckle"] = bridged_;
+    rep["coplanar_speckle_absorbed"] = speckles_;
+    rep["coplanar_speckle_faces"] = speckle_faces_;
+    rep["coplanar_passes"] = passes;
+    rep["coplanar_rejections"] = {{"angle", rej_angle_}, {"rms", rej_rms_}, {"offset", rej_offset_}};
+  }
+
+ private:
+  /// A group of at least coplanar_min_faces faces.
+  bool large(int r) const { return m_[static_cast<size_t>(r)].faces >= p_.coplanar_min_faces; }
+  /// A large group whose face normals agree (a tree crown, clutter has no plane to group by).
+  bool planar(int r) const { return large(r) && coherent(m_[static_cast<size_t>(r)], p_); }
+  Vec3 normal_of(int r, const PlaneFit& f) const {
+    return reliable_normal(m_[static_cast<size_t>(r)], f, smooth_[static_cast<size_t>(r)], p_);
+  }
+
+  /// Largest offset of the two parts from their union's plane, or a negative value when (a)'s
+  /// angle, RMS or offset test fails (counted per test).
+  double coplanar_cost(int a, int b) {
+    const PlaneMoments& ma = m_[static_cast<size_t>(a)];
+    const PlaneMoments& mb = m_[static_cast<size_t>(b)];
     const PlaneFit fa = fit_plane(ma), fb = fit_plane(mb);
-    if (!fa.valid || !fb.valid || normal_angle(normal_of(a, fa), normal_of(b, fb)) >= p.coplanar_angle) {
-      ++rej_angle;
+    if (!fa.valid || !fb.valid || normal_angle(normal_of(a, fa), normal_of(b, fb)) >= p_.coplanar_angle) {
+      ++rej_angle_;
       return -1.0;
     }
     PlaneMoments mu = ma;
     mu.add(mb);
     const PlaneFit fu = fit_plane(mu);
-    if (!fu.valid || std::sqrt(fu.eigenvalues[0]) > rms_tol) {
-      ++rej_rms;
+    if (!fu.valid || std::sqrt(fu.eigenvalues[0]) > rms_tol_) {
+      ++rej_rms_;
       return -1.0;
     }
     double worst = 0;
@@ -707,35 +767,38 @@ void group_coplanar(const Units& U, const Params& p, std::vector<int>& region, i
       const double d = plane_rms_distance(*part, fu.centroid, fu.normal);
       worst = std::max(worst, std::sqrt(std::max(0.0, d * d - own.eigenvalues[0])));
     }
-    if (worst > offset_tol) {
-      ++rej_offset;
+    if (worst > offset_tol_) {
+      ++rej_offset_;
       return -1.0;
     }
     return worst;
-  };
-  auto join = [&](int into, int from) {
-    uf.p[static_cast<size_t>(from)] = into;
-    m[static_cast<size_t>(into)].add(m[static_cast<size_t>(from)]);
-    smooth[static_cast<size_t>(into)] += smooth[static_cast<size_t>(from)];
-    auto& dst = nbr[static_cast<size_t>(into)];
-    for (const auto& [t, l] : nbr[static_cast<size_t>(from)]) dst[t] += l;
-    nbr[static_cast<size_t>(from)].clear();
-  };
-  // Current neighbours of root r (other roots) with their shared border length.
-  auto neighbours = [&](int r) {
+  }
+
+  /// Joins root `from` into root `into`: moments, smoothed normals and borders add up.
+  void join(int into, int from) {
+    uf_.p[static_cast<size_t>(from)] = into;
+    m_[static_cast<size_t>(into)].add(m_[static_cast<size_t>(from)]);
+    smooth_[static_cast<size_t>(into)] += smooth_[static_cast<size_t>(from)];
+    auto& dst = nbr_[static_cast<size_t>(into)];
+    for (const auto& [t, l] : nbr_[static_cast<size_t>(from)]) dst[t] += l;
+    nbr_[static_cast<size_t>(from)].clear();
+  }
+
+  /// Current neighbours of root r (other roots) with their shared border length.
+  std::map<int, double> neighbours(int r) {
     std::map<int, double> out;
-    for (const auto& [t, l] : nbr[static_cast<size_t>(r)]) {
-      const int s = uf.find(t);
+    for (const auto& [t, l] : nbr_[static_cast<size_t>(r)]) {
+      const int s = uf_.find(t);
       if (s != r) out[s] += l;
     }
-    nbr[static_cast<size_t>(r)] = out;  // compact the stale keys
+    nbr_[static_cast<size_t>(r)] = out;  // compact the stale keys
     return out;
-  };
-  size_t grouped = 0, bridged = 0, speckles = 0, speckle_faces = 0, passes = 0;
-  for (bool changed = true; changed;) {
-    changed = false;
-    ++passes;
-    // (a) Candidate pairs: adjacent large regions, and large regions bordering a common smaller one.
+  }
+
+  /// (a)'s candidate pairs that pass its tests, as (cost, a, b, through a bridge): adjacent planar
+  /// large groups; planar large groups around a smaller large one (a pilaster band); planar large
+  /// groups around one connected cluster of small groups (speckle).
+  std::vector<std::tuple<double, int, int, bool>> candidate_pairs() {
     std::vector<std::tuple<double, int, int, bool>> pairs;  // cost, a, b, through a bridge
     std::map<std::pair<int, int>, bool> seen;
     auto consider = [&](int a, int b, bool bridge) {
@@ -745,16 +808,16 @@ void group_coplanar(const Units& U, const Params& p, std::vector<int>& region, i
       const double c = coplanar_cost(a, b);
       if (c >= 0) pairs.emplace_back(c, key.first, key.second, bridge);
     };
-    std::vector<std::map<int, double>> nbs(static_cast<size_t>(n));
-    for (int r = 0; r < n; ++r)
-      if (uf.find(r) == r) nbs[static_cast<size_t>(r)] = neighbours(r);
+    std::vector<std::map<int, double>> nbs(static_cast<size_t>(n_));
+    for (int r = 0; r < n_; ++r)
+      if (uf_.find(r) == r) nbs[static_cast<size_t>(r)] = neighbours(r);
     auto pairs_around = [&](const std::vector<int>& around) {
       for (size_t i = 0; i < around.size(); ++i)
         for (size_t j = i + 1; j < around.size(); ++j) consider(around[i], around[j], true);
     };
-    std::vector<uint8_t> flooded(static_cast<size_t>(n), 0);
-    for (int r = 0; r < n; ++r) {
-      if (uf.find(r) != r) continue;
+    std::vector<uint8_t> flooded(static_cast<size_t>(n_), 0);
+    for (int r = 0; r < n_; ++r) {
+      if (uf_.find(r) != r) continue;
       const std::map<int, double>& nb = nbs[static_cast<size_t>(r)];
       if (large(r)) {
         if (planar(r))
@@ -763,7 +826,7 @@ void group_coplanar(const Units& U, const Params& p, std::vector<int>& region, i
         // A large region smaller than two large neighbours bridges them (a pilaster band).
         std::vector<int> around;
         for (const auto& [t, l] : nb)
-          if (planar(t) && m[static_cast<size_t>(t)].faces > m[static_cast<size_t>(r)].faces) around.push_back(t);
+          if (planar(t) && m_[static_cast<size_t>(t)].faces > m_[static_cast<size_t>(r)].faces) around.push_back(t);
         pairs_around(around);
         continue;
       }
@@ -785,54 +848,47 @@ void group_coplanar(const Units& U, const Params& p, std::vector<int>& region, i
       for (int t : touched_large) flooded[static_cast<size_t>(t)] = 0;  // large ones may border other clusters
       pairs_around(around);
     }
-    std::sort(pairs.begin(), pairs.end());
-    for (const auto& [c0, a0, b0, bridge] : pairs) {
-      int a = uf.find(a0), b = uf.find(b0);
-      if (a == b || coplanar_cost(a, b) < 0) continue;
-      if (m[static_cast<size_t>(a)].faces < m[static_cast<size_t>(b)].faces) std::swap(a, b);
-      join(a, b);
-      ++grouped;
-      bridged += bridge;
-      changed = true;
-    }
-    // (b) Speckle, smallest first.
-    std::vector<int> small;
-    for (int r = 0; r < n; ++r)
-      if (uf.find(r) == r && !large(r)) small.push_back(r);
-    std::stable_sort(small.begin(), small.end(), [&](int a, int b) {
-      return m[static_cast<size_t>(a)].faces < m[static_cast<size_t>(b)].faces;
-    });
-    for (int s : small) {
-      if (uf.find(s) != s || large(s)) continue;
-      const PlaneMoments& ms = m[static_cast<size_t>(s)];
-      const Vec3 ns = normal_of(s, fit_plane(ms));
-      int best = -1;
-      double best_d = 0;
-      for (const auto& [t, l] : neighbours(s)) {
-        if (!planar(t) || !(ms.faces < p.speckle_max_fraction * m[static_cast<size_t>(t)].faces)) continue;
-        const PlaneFit ft = fit_plane(m[static_cast<size_t>(t)]);
-        if (!ft.valid) continue;
-        const Vec3 nt = normal_of(t, ft);
-        const double d = plane_rms_distance(ms, ft.centroid, nt);
-        if (normal_angle(ns, nt) >= p.speckle_angle || d > speckle_tol || (best >= 0 && d >= best_d)) continue;
-        best = t;
-        best_d = d;
-      }
-      if (best < 0) continue;
-      speckle_faces += static_cast<size_t>(ms.faces);
-      join(best, s);
-      ++speckles;
-      changed = true;
-    }
+    return pairs;
   }
-  for (int& r : region) r = uf.find(r);
-  n = compact_labels(region);
-  rep["coplanar_joins"] = grouped;
-  rep["coplanar_joins_across_speckle"] = bridged;
-  rep["coplanar_speckle_absorbed"] = speckles;
-  rep["coplanar_speckle_faces"] = speckle_faces;
-  rep["coplanar_passes"] = passes;
-  rep["coplanar_rejections"] = {{"angle", rej_angle}, {"rms", rej_rms}, {"offset", rej_offset}};
+
+  const Params& p_;
+  int n_;
+  std::vector<PlaneMoments> m_;
+  std::vector<Vec3> smooth_;
+  std::vector<std::map<int, double>> nbr_;
+  UnionFind uf_;
+  double offset_tol_ = 0, rms_tol_ = 0, speckle_tol_ = 0;
+  size_t rej_angle_ = 0, rej_rms_ = 0, rej_offset_ = 0;  // candidate pairs failing each test of (a)
+  size_t grouped_ = 0, bridged_ = 0, speckles_ = 0, speckle_faces_ = 0;
+};
+
+/// Refinement (coplanar grouping, our addition; docs/detectors.md refinement 9). Facades come out of
+/// growth cut into several coplanar regions (at pilaster bands, tile cracks, bay windows) with small
+/// speckle regions between them. Two steps, repeated until nothing changes:
+///  (a) grouping: two regions with at least coplanar_min_faces faces each ("large"), adjacent, or
+///      both touching a large region smaller than both, or both bordering one connected cluster of
+///      small regions (a speckle strip between two facade pieces), join when their fitted
+///      normals are within coplanar_angle, the RMS residual of their union's plane fit is at most
+///      coplanar_max_rms mean edge lengths, and each one's offset from the union's plane (the RMS
+///      distance of its surface to that plane beyond its own residual: the part due to tilt and
+///      shift) is at most coplanar_max_offset mean edge lengths. Best-fitting pairs first; groups
+///      are refitted from summed moments after every join.
+///  (b) speckle: a region with fewer than coplanar_min_faces faces joins the neighbouring large
+///      region (at least coplanar_min_faces faces and more than 1/speckle_max_fraction times its
+///      faces) whose plane it lies on best: normal within speckle_angle and the smallest RMS distance
+///      of its surface to the plane, at most speckle_max_distance mean edge lengths.
+/// A wall and a roof (90 degrees) or the ground and a facade never pass the angle tests; a tree
+/// crown fails the residual test (a) and is too far from any plane for (b).
+void group_coplanar(const Units& U, const Params& p, std::vector<int>& region, int& n, json& rep) {
+  CoplanarGrouping grouping(U, p, region, n);
+  size_t passes = 0;
+  for (bool changed = true; changed;) {
+    ++passes;
+    const bool grouped = grouping.group_pairs();
+    const bool absorbed = grouping.absorb_speckle();
+    changed = grouped || absorbed;
+  }
+  grouping.finish(region, n, passes, rep);
 }
 
 /// Kasa circle fit in the plane perpendicular to `axis` through area-weighted sample points
