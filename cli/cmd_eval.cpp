@@ -51,7 +51,7 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
           "NUMBER >= 0"));
   sub->add_flag("--no-appearance", args->no_appearance,
                 "skip the appearance measures (texel clashes per MIP level, seam colour, rendered views)");
-  sub->add_option("--mip-levels", args->mip_levels, "highest MIP level of the texel clashes")
+  sub->add_option("--mip-levels", args->mip_levels, "highest MIP level of the texel clashes and the seam colour discrepancy")
       ->check(CLI::Range(0, 16));
   sub->add_option("--render-views", args->render_views, "fixed views of the rendered-view fidelity")
       ->check(CLI::Range(1, 64));

@@ -41,10 +41,13 @@ const Derived kDerived[] = {
     {"charts_out", 0},              {"packing_efficiency_out", +1},  {"uv_overlaps_out", -1},
     {"psnr_db", +1},                {"copied_fraction", +1},         {"lost_faces", -1},
     {"time_s", -1},                 {"peak_rss_mb", -1},
-    // Appearance measures (docs/eval.md "Appearance"): clashes at MIP levels 2 and 4, seam colour,
-    // rendered-view PSNR / SSIM per distance step _l<d> (output, and input, vs the prefiltered input).
+    // Appearance measures (docs/eval.md "Appearance"): clashes at MIP levels 2 and 4, seam colour
+    // at levels 0 (no suffix), 2 and 4, rendered-view PSNR / SSIM per distance step _l<d> (output,
+    // and input, vs the prefiltered input).
     {"clash_fraction_l2_in", 0},    {"clash_fraction_l2_out", -1},   {"clash_fraction_l4_in", 0},
     {"clash_fraction_l4_out", -1},  {"seam_colour_in", 0},           {"seam_colour_out", -1},
+    {"seam_colour_l2_in", 0},       {"seam_colour_l2_out", -1},      {"seam_colour_l4_in", 0},
+    {"seam_colour_l4_out", -1},
     {"rendered_psnr_l0", +1},       {"rendered_psnr_l1", +1},        {"rendered_psnr_l2", +1},
     {"rendered_psnr_l3", +1},       {"rendered_psnr_l4", +1},        {"rendered_ssim_l0", +1},
     {"rendered_ssim_l1", +1},       {"rendered_ssim_l2", +1},        {"rendered_ssim_l3", +1},
@@ -126,6 +129,10 @@ void appearance_metrics(const json& r, json& d) {
       d["clash_fraction_l" + std::to_string(level) + "_" + side] = opt(num_at(r, p.c_str()));
     }
     d[std::string("seam_colour_") + side] = opt(num_at(r, ("/eval/seam_colour/" + which + "/mean").c_str()));
+    for (int level : {2, 4}) {
+      const std::string p = "/eval/seam_colour/" + which + "/levels/" + std::to_string(level) + "/mean";
+      d["seam_colour_l" + std::to_string(level) + "_" + side] = opt(num_at(r, p.c_str()));
+    }
   }
   for (int level = 0; level <= 4; ++level) {
     const std::string base = "/eval/rendered/levels/" + std::to_string(level) + "/";

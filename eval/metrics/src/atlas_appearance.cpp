@@ -117,11 +117,21 @@ std::vector<ClashLevel> texel_clashes(const TexturedMesh& mesh, int max_level) {
   return levels;
 }
 
-SeamColourMetrics seam_colour(const TexturedMesh& mesh, const std::vector<Image>& pages) {
-  if (pages.size() != mesh.pages.size()) throw std::invalid_argument("seam_colour: one image per page expected");
+namespace {
+
+/// One seam edge's sample points: texel coordinates (level 0) of both sides, their pages, weight.
+struct SeamSamples {
+  Vec2 f0, f1, g0, g1;  // the edge on face f's and face g's page, level-0 texels
+  int fpage = 0, gpage = 0;
+  int n = 1;            // points t = (i + 0.5) / n
+  double weight = 0;    // per point: 3D length / n
+};
+
+/// The seam edges of `mesh` (manifold, both faces textured and non-degenerate, not UV-continuous).
+std::vector<SeamSamples> seam_edges(const TexturedMesh& mesh, double& length_3d) {
   const Topology topo = build_topology(mesh);
-  SeamColourMetrics r;
-  double weight = 0, sum = 0, sq = 0;
+  std::vector<SeamSamples> seams;
+  length_3d = 0;
   for (const Edge& e : topo.edges) {
     if (e.num_faces != 2) continue;
     const EdgeIncidence& x = topo.edge_faces[static_cast<size_t>(e.first_incidence)];
@@ -138,30 +148,63 @@ SeamColourMetrics seam_colour(const TexturedMesh& mesh, const std::vector<Image>
     };
     const int fa = corner_at(f, e.a), fb = corner_at(f, e.b), ga = corner_at(g, e.a), gb = corner_at(g, e.b);
     if (fa < 0 || fb < 0 || ga < 0 || gb < 0) continue;
-    const Vec2 uf0 = mesh.corner_texel(f, fa), uf1 = mesh.corner_texel(f, fb);
-    const Vec2 ug0 = mesh.corner_texel(g, ga), ug1 = mesh.corner_texel(g, gb);
+    SeamSamples s;
+    s.f0 = mesh.corner_texel(f, fa), s.f1 = mesh.corner_texel(f, fb);
+    s.g0 = mesh.corner_texel(g, ga), s.g1 = mesh.corner_texel(g, gb);
+    s.fpage = mesh.faces[f].page, s.gpage = mesh.faces[g].page;
     const double len3 = (mesh.corner_position(f, fa) - mesh.corner_position(f, fb)).norm();
-    const double texels = std::max((uf1 - uf0).norm(), (ug1 - ug0).norm());
-    const int n = std::isfinite(texels) ? std::clamp(static_cast<int>(std::ceil(texels)), 1, 64) : 1;
-    ++r.seam_edges;
-    r.length_3d += len3;
-    const Image& pf = pages[static_cast<size_t>(mesh.faces[f].page)];
-    const Image& pgi = pages[static_cast<size_t>(mesh.faces[g].page)];
-    for (int i = 0; i < n; ++i) {
-      const double t = (i + 0.5) / n;
-      const Vec2 a = uf0 + t * (uf1 - uf0), b = ug0 + t * (ug1 - ug0);
-      double ca[3], cb[3];
-      bilinear_rgb(pf, a.x(), a.y(), ca);
-      bilinear_rgb(pgi, b.x(), b.y(), cb);
-      const double d = std::sqrt((ca[0] - cb[0]) * (ca[0] - cb[0]) + (ca[1] - cb[1]) * (ca[1] - cb[1]) +
-                                 (ca[2] - cb[2]) * (ca[2] - cb[2]));
-      const double w = len3 / n;
-      weight += w, sum += w * d, sq += w * d * d;
-      r.max = std::max(r.max, d);
-      ++r.samples;
-    }
+    const double texels = std::max((s.f1 - s.f0).norm(), (s.g1 - s.g0).norm());
+    s.n = std::isfinite(texels) ? std::clamp(static_cast<int>(std::ceil(texels)), 1, 64) : 1;
+    s.weight = len3 / s.n;
+    length_3d += len3;
+    seams.push_back(s);
   }
-  if (weight > 0) r.mean = sum / weight, r.rms = std::sqrt(sq / weight);
+  return seams;
+}
+
+/// Bilinear colour at level-0 texel coordinates `p` read on `level` of `pyr` (clamped to its
+/// coarsest level).
+void read_level(const std::vector<Image>& pyr, int level, const Vec2& p, double rgb[3]) {
+  const Image& base = pyr[0];
+  const Image& im = pyr[std::min(static_cast<size_t>(level), pyr.size() - 1)];
+  if (&im == &base) return bilinear_rgb(base, p.x(), p.y(), rgb);
+  bilinear_rgb(im, p.x() * im.width / base.width, p.y() * im.height / base.height, rgb);
+}
+
+}  // namespace
+
+SeamColourMetrics seam_colour(const TexturedMesh& mesh, const std::vector<Image>& pages, int max_level) {
+  if (pages.size() != mesh.pages.size()) throw std::invalid_argument("seam_colour: one image per page expected");
+  if (max_level < 0) throw std::invalid_argument("seam_colour: max_level must be >= 0");
+  SeamColourMetrics r;
+  const std::vector<SeamSamples> seams = seam_edges(mesh, r.length_3d);
+  r.seam_edges = seams.size();
+  std::vector<std::vector<Image>> pyramids(pages.size());
+  for (const SeamSamples& s : seams)
+    for (int p : {s.fpage, s.gpage})
+      if (pyramids[static_cast<size_t>(p)].empty()) pyramids[static_cast<size_t>(p)] = mip_pyramid(pages[static_cast<size_t>(p)], max_level);
+  for (int level = 0; level <= max_level; ++level) {
+    SeamColourLevel L;
+    L.level = level;
+    double weight = 0, sum = 0, sq = 0;
+    size_t samples = 0;
+    for (const SeamSamples& s : seams)
+      for (int i = 0; i < s.n; ++i) {
+        const double t = (i + 0.5) / s.n;
+        double ca[3], cb[3];
+        read_level(pyramids[static_cast<size_t>(s.fpage)], level, s.f0 + t * (s.f1 - s.f0), ca);
+        read_level(pyramids[static_cast<size_t>(s.gpage)], level, s.g0 + t * (s.g1 - s.g0), cb);
+        const double d = std::sqrt((ca[0] - cb[0]) * (ca[0] - cb[0]) + (ca[1] - cb[1]) * (ca[1] - cb[1]) +
+                                   (ca[2] - cb[2]) * (ca[2] - cb[2]));
+        weight += s.weight, sum += s.weight * d, sq += s.weight * d * d;
+        L.max = std::max(L.max, d);
+        ++samples;
+      }
+    if (weight > 0) L.mean = sum / weight, L.rms = std::sqrt(sq / weight);
+    r.samples = samples;
+    r.levels.push_back(L);
+  }
+  r.mean = r.levels[0].mean, r.rms = r.levels[0].rms, r.max = r.levels[0].max;
   return r;
 }
 

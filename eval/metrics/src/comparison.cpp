@@ -265,8 +265,8 @@ Comparison compare(const TexturedMesh& in_mesh, const TexturedMesh& out_mesh, co
     c.fidelity = texture_fidelity(in, ip, out, op, c.match, options.fidelity);
     c.has_fidelity = true;
     if (options.appearance) {
-      c.seam_colour_input = seam_colour(in, ip);
-      c.seam_colour_output = seam_colour(out, op);
+      c.seam_colour_input = seam_colour(in, ip, options.clash_max_level);
+      c.seam_colour_output = seam_colour(out, op, options.clash_max_level);
       c.has_seam_colour = true;
       c.rendered = rendered_fidelity(in, ip, out, op, options.render);
       c.has_rendered = true;

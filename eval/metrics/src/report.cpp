@@ -89,8 +89,11 @@ static void appearance_json(const Comparison& c, nlohmann::json& j) {
   };
   j["texel_clashes"] = c.has_clashes ? json{{"input", clashes(c.clashes_input)}, {"output", clashes(c.clashes_output)}} : json(nullptr);
   auto seam = [](const SeamColourMetrics& s) {
+    json levels = json::array();
+    for (const SeamColourLevel& l : s.levels)
+      levels.push_back({{"level", l.level}, {"mean", num(l.mean)}, {"rms", num(l.rms)}, {"max", num(l.max)}});
     return json{{"seam_edges", s.seam_edges}, {"samples", s.samples}, {"length_3d", num(s.length_3d)},
-                {"mean", num(s.mean)}, {"rms", num(s.rms)}, {"max", num(s.max)}};
+                {"mean", num(s.mean)}, {"rms", num(s.rms)}, {"max", num(s.max)}, {"levels", levels}};
   };
   j["seam_colour"] = c.has_seam_colour ? json{{"input", seam(c.seam_colour_input)}, {"output", seam(c.seam_colour_output)}} : json(nullptr);
   if (!c.has_rendered) {
@@ -200,10 +203,16 @@ std::string summary(const Comparison& c) {
       s += fmt("  L%zu %.1f%% -> %.1f%%", l, 100.0 * c.clashes_input[l].fraction, 100.0 * c.clashes_output[l].fraction);
     s += "\n";
   }
-  if (c.has_seam_colour)
+  if (c.has_seam_colour) {
     s += fmt("seam colour  mean %.2f -> %.2f  rms %.2f -> %.2f (RGB levels, %zu -> %zu seam edges)\n",
              c.seam_colour_input.mean, c.seam_colour_output.mean, c.seam_colour_input.rms, c.seam_colour_output.rms,
              c.seam_colour_input.seam_edges, c.seam_colour_output.seam_edges);
+    s += "seam colour per MIP level (mean, input -> output)";
+    const auto& a = c.seam_colour_input.levels;
+    const auto& b = c.seam_colour_output.levels;
+    for (size_t l = 0; l < a.size() && l < b.size(); ++l) s += fmt("  L%zu %.2f -> %.2f", l, a[l].mean, b[l].mean);
+    s += "\n";
+  }
   if (c.has_rendered) {
     s += fmt("rendered (%d views from %d px down; PSNR vs the prefiltered input: input / output; SSIM output)",
              c.rendered.views, c.rendered.size);

@@ -153,6 +153,9 @@ TEST(SeamColour, KnownJumpAcrossOneSeam) {
   EXPECT_NEAR(s.rms, 5.0, 1e-9);
   EXPECT_NEAR(s.max, 5.0, 1e-9);
   EXPECT_GE(s.samples, 1u);
+  // Solid pages: the same jump at every MIP level.
+  for (const SeamColourLevel& l : seam_colour(m, {solid(16, 16, 100, 50, 0), solid(16, 16, 103, 54, 0)}, 4).levels)
+    EXPECT_NEAR(l.mean, 5.0, 1e-9) << "level " << l.level;
   const SeamColourMetrics same = seam_colour(m, {solid(16, 16, 7, 8, 9), solid(16, 16, 7, 8, 9)});
   EXPECT_EQ(same.seam_edges, 1u);
   EXPECT_EQ(same.mean, 0.0);
@@ -161,6 +164,50 @@ TEST(SeamColour, KnownJumpAcrossOneSeam) {
   EXPECT_EQ(none.seam_edges, 0u);
   EXPECT_EQ(none.samples, 0u);
   EXPECT_THROW(seam_colour(m, {solid(16, 16, 0, 0, 0)}), std::invalid_argument);
+}
+
+// The seam per MIP level, by hand. A 16x16 page: columns 0-11 grey 200, 12-15 black (gutter).
+// Two charts share the 3D edge x = 1 (a vertical line on the page in both): chart A's side of it
+// lies at u = 11.5 texels, next to the gutter, chart B's at u = 4.5, inside the grey. Rows are
+// uniform, so only u matters. Bilinear reads (texel centres at half-integers) of the box-filtered
+// levels (widths 16, 8, 4, 2, 1; grey per column):
+//   L0: A reads column 11 = 200, B column 4 = 200                  -> 0
+//   L1: A at 5.75: 0.75 x 200 + 0.25 x 0 = 150; B at 2.25: 200     -> 50
+//   L2: A at 2.875: 0.625 x 200 = 125; B at 1.125: 200             -> 75
+//   L3: columns (200, 100); A at 1.4375: 106.25; B at 0.5625: 193.75 -> 87.5
+//   L4: one texel, 150 on both sides                              -> 0
+// The distance is Euclidean over R, G, B, so each is the grey step times sqrt(3).
+TEST(SeamColour, PerMipLevelByHand) {
+  TexturedMesh m = one_page_mesh(16);
+  m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), Vec3(2, 0, 0), Vec3(2, 1, 0)};
+  const double s = 16;
+  m.texcoords = {Vec2(8.5 / s, 0.5 / s), Vec2(11.5 / s, 0.5 / s), Vec2(11.5 / s, 15.5 / s), Vec2(8.5 / s, 15.5 / s),   // A
+                 Vec2(4.5 / s, 0.5 / s), Vec2(7.5 / s, 0.5 / s), Vec2(7.5 / s, 15.5 / s), Vec2(4.5 / s, 15.5 / s)};  // B
+  const std::array<std::array<int, 6>, 4> faces = {{{0, 1, 2, 0, 1, 2}, {0, 2, 3, 0, 2, 3}, {1, 4, 5, 4, 5, 6}, {1, 5, 2, 4, 6, 7}}};
+  for (const auto& q : faces) {
+    Face f;
+    f.v = {q[0], q[1], q[2]}, f.vt = {q[3], q[4], q[5]}, f.page = f.material = 0;
+    m.faces.push_back(f);
+  }
+  Image page = solid(16, 16, 200, 200, 200);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 12; x < 16; ++x)
+      for (int c = 0; c < 3; ++c) page.pixels[(static_cast<size_t>(y) * 16 + static_cast<size_t>(x)) * 3 + static_cast<size_t>(c)] = 0;
+  const SeamColourMetrics r = seam_colour(m, {page}, 5);
+  EXPECT_EQ(r.seam_edges, 1u);
+  EXPECT_EQ(r.samples, 15u);  // n = ceil(15 texels) points, the same at every level
+  ASSERT_EQ(r.levels.size(), 6u);
+  const double grey[] = {0, 50, 75, 87.5, 0, 0};  // level 5: past the 1x1 level, read the 1x1 level
+  for (int l = 0; l <= 5; ++l) {
+    EXPECT_EQ(r.levels[static_cast<size_t>(l)].level, l);
+    EXPECT_NEAR(r.levels[static_cast<size_t>(l)].mean, grey[l] * std::sqrt(3.0), 1e-9) << "level " << l;
+    EXPECT_NEAR(r.levels[static_cast<size_t>(l)].rms, grey[l] * std::sqrt(3.0), 1e-9) << "level " << l;
+    EXPECT_NEAR(r.levels[static_cast<size_t>(l)].max, grey[l] * std::sqrt(3.0), 1e-9) << "level " << l;
+  }
+  EXPECT_EQ(r.mean, r.levels[0].mean);
+  // Level 0 only by default; a negative level is refused.
+  EXPECT_EQ(seam_colour(m, {page}).levels.size(), 1u);
+  EXPECT_THROW(seam_colour(m, {page}, -1), std::invalid_argument);
 }
 
 TEST(RenderedFidelity, IdenticalPairIsInfiniteAndSsimOne) {

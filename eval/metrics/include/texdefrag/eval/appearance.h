@@ -66,22 +66,35 @@ std::vector<ClashLevel> texel_clashes(const TexturedMesh& mesh, int max_level);
 // ---------------------------------------------------------------------------------------------
 // Seam colour discrepancy
 
+/// Seam colour discrepancy read on one MIP level.
+struct SeamColourLevel {
+  int level = 0;
+  double mean = 0;  ///< 3D-length-weighted mean RGB distance across the seam (8-bit levels)
+  double rms = 0;   ///< root of the weighted mean squared RGB distance
+  double max = 0;   ///< largest sampled distance
+};
+
 struct SeamColourMetrics {
   size_t seam_edges = 0;  ///< welded edges with two textured faces that are not UV-continuous
-  size_t samples = 0;     ///< points sampled along them
+  size_t samples = 0;     ///< points sampled along them (the same points at every level)
   double length_3d = 0;   ///< model units: total 3D length of the seam edges
-  double mean = 0;        ///< 3D-length-weighted mean RGB distance across the seam (8-bit levels)
-  double rms = 0;         ///< root of the weighted mean squared RGB distance
-  double max = 0;         ///< largest sampled distance
+  double mean = 0;        ///< level 0: 3D-length-weighted mean RGB distance across the seam (8-bit levels)
+  double rms = 0;         ///< level 0: root of the weighted mean squared RGB distance
+  double max = 0;         ///< level 0: largest sampled distance
+  std::vector<SeamColourLevel> levels;  ///< levels 0..max_level (levels[0] repeats mean, rms, max)
 };
 
 /// Colour discrepancy across the seams of a model: each seam edge (manifold, both faces textured,
 /// not UV-continuous) is sampled at n points t = (i + 0.5) / n, n = ceil of the longer of its two
-/// UV edges in texels, clamped to [1, 64]; at each point the colour is read bilinearly through
-/// each face's UVs on its page and the Euclidean RGB distance is taken, weighted by the 3D length
-/// / n. A seam whose two sides show the same texels scores 0.
-/// @param pages  one image per page of `mesh`
-SeamColourMetrics seam_colour(const TexturedMesh& mesh, const std::vector<Image>& pages);
+/// UV edges in texels of level 0, clamped to [1, 64]; at each point the colour is read bilinearly
+/// through each face's UVs on its page and the Euclidean RGB distance is taken, weighted by the 3D
+/// length / n. At MIP level l the same points are read on level l of each page's box-filtered
+/// pyramid (mip_pyramid; texel coordinates u w_l, v h_l; a page smaller than 2^l reads its 1x1
+/// level), as a renderer sampling that level shows the seam. A seam whose two sides show the same
+/// texels scores 0 at level 0.
+/// @param pages      one image per page of `mesh`
+/// @param max_level  highest MIP level, >= 0
+SeamColourMetrics seam_colour(const TexturedMesh& mesh, const std::vector<Image>& pages, int max_level = 0);
 
 // ---------------------------------------------------------------------------------------------
 // Rendered-view fidelity

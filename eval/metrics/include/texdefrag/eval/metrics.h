@@ -189,7 +189,7 @@ struct EvalOptions {
   /// Appearance measures (appearance.h): texel clashes per MIP level (needs no image), seam colour
   /// discrepancy and rendered-view fidelity (need the images). False skips all three.
   bool appearance = true;
-  /// Texel clashes at MIP levels 0..clash_max_level (>= 0).
+  /// Texel clashes and seam colour discrepancy at MIP levels 0..clash_max_level (>= 0).
   int clash_max_level = 4;
   /// Views, sizes (distance steps) and reference supersampling of the rendered-view fidelity.
   RenderFidelityOptions render;
