@@ -1,11 +1,12 @@
 // Views for the eval harness, after Liu et al. 2024: chart-coloured atlas pages (Figures 13-14:
 // every textured face's UV triangle filled with its chart's colour) and oblique 3D renders coloured
-// by chart or by detected region (Figure 11), from a small z-buffered software rasteriser.
+// by chart or by detected region (Figure 11), drawn by the shared rasteriser (eval/raster).
 #include "texdefrag/eval/bench.h"
 
 #include "texdefrag/core/charts.h"
 #include "texdefrag/core/topology.h"
 #include "texdefrag/eval/metrics.h"
+#include "texdefrag/eval/raster.h"
 #include "texdefrag/io/image.h"
 #include "texdefrag/io/obj.h"
 #include "texdefrag/pipeline/pipeline.h"
@@ -75,24 +76,8 @@ std::vector<std::string> write_chart_views(const std::string& obj_path, const st
       uint8_t* px = &im.pixels[(static_cast<size_t>(y) * static_cast<size_t>(im.width) + static_cast<size_t>(x)) * 3];
       std::copy(colour.begin(), colour.end(), px);
     };
-    const double area = (t[1] - t[0]).x() * (t[2] - t[0]).y() - (t[1] - t[0]).y() * (t[2] - t[0]).x();
-    const int x0 = static_cast<int>(std::floor(std::min({t[0].x(), t[1].x(), t[2].x()})));
-    const int x1 = static_cast<int>(std::ceil(std::max({t[0].x(), t[1].x(), t[2].x()})));
-    const int y0 = static_cast<int>(std::floor(std::min({t[0].y(), t[1].y(), t[2].y()})));
-    const int y1 = static_cast<int>(std::ceil(std::max({t[0].y(), t[1].y(), t[2].y()})));
-    if (area != 0 && std::isfinite(area)) {
-      for (int y = std::max(y0, 0); y <= std::min(y1, im.height - 1); ++y)
-        for (int x = std::max(x0, 0); x <= std::min(x1, im.width - 1); ++x) {
-          const Vec2 c(x + 0.5, y + 0.5);
-          double w[3];
-          for (int k = 0; k < 3; ++k) {
-            const Vec2& a = t[static_cast<size_t>((k + 1) % 3)];
-            const Vec2& b = t[static_cast<size_t>((k + 2) % 3)];
-            w[k] = ((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x()) / area;
-          }
-          if (w[0] >= 0 && w[1] >= 0 && w[2] >= 0) put(x, y);
-        }
-    }
+    raster::scan_triangle({Vec3(t[0].x(), t[0].y(), 0), Vec3(t[1].x(), t[1].y(), 0), Vec3(t[2].x(), t[2].y(), 0)}, im.width,
+                          im.height, [&](const raster::Fragment& fr) { put(fr.x, fr.y); });
     // Triangles smaller than a pixel stay visible: the pixel of their centroid.
     const Vec2 g = (t[0] + t[1] + t[2]) / 3.0;
     if (std::isfinite(g.x()) && std::isfinite(g.y()))
@@ -148,7 +133,7 @@ Image render_3d(const TexturedMesh& mesh, const std::vector<int>& face_colour, i
   if (x1 < x0) return im;
   const double margin = 0.02 * std::max(im.width, im.height);
   const double s = std::min((im.width - 2 * margin) / std::max(x1 - x0, 1e-12), (im.height - 2 * margin) / std::max(y1 - y0, 1e-12));
-  std::vector<double> depth(static_cast<size_t>(im.width) * static_cast<size_t>(im.height), -1e300);
+  raster::DepthBuffer zb(im.width, im.height);
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     std::array<Vec3, 3> t;
     std::array<Vec3, 3> world;
@@ -164,28 +149,10 @@ Image render_3d(const TexturedMesh& mesh, const std::vector<int>& face_colour, i
     std::array<uint8_t, 3> c;
     for (int k = 0; k < 3; ++k)
       c[static_cast<size_t>(k)] = static_cast<uint8_t>(std::lround(base[static_cast<size_t>(k)] * shade));
-    const double area = (t[1].x() - t[0].x()) * (t[2].y() - t[0].y()) - (t[1].y() - t[0].y()) * (t[2].x() - t[0].x());
-    if (area == 0 || !std::isfinite(area)) continue;
-    const int bx0 = std::max(0, static_cast<int>(std::floor(std::min({t[0].x(), t[1].x(), t[2].x()}))));
-    const int bx1 = std::min(im.width - 1, static_cast<int>(std::ceil(std::max({t[0].x(), t[1].x(), t[2].x()}))));
-    const int by0 = std::max(0, static_cast<int>(std::floor(std::min({t[0].y(), t[1].y(), t[2].y()}))));
-    const int by1 = std::min(im.height - 1, static_cast<int>(std::ceil(std::max({t[0].y(), t[1].y(), t[2].y()}))));
-    for (int y = by0; y <= by1; ++y)
-      for (int x = bx0; x <= bx1; ++x) {
-        const double cx = x + 0.5, cy = y + 0.5;
-        double w[3];
-        for (int k = 0; k < 3; ++k) {
-          const Vec3& a = t[static_cast<size_t>((k + 1) % 3)];
-          const Vec3& b = t[static_cast<size_t>((k + 2) % 3)];
-          w[k] = ((b.x() - a.x()) * (cy - a.y()) - (b.y() - a.y()) * (cx - a.x())) / area;
-        }
-        if (w[0] < 0 || w[1] < 0 || w[2] < 0) continue;
-        const double z = w[0] * t[0].z() + w[1] * t[1].z() + w[2] * t[2].z();
-        const size_t i = static_cast<size_t>(y) * static_cast<size_t>(im.width) + static_cast<size_t>(x);
-        if (z <= depth[i]) continue;
-        depth[i] = z;
-        std::copy(c.begin(), c.end(), &im.pixels[i * 3]);
-      }
+    zb.draw(t, [&](const raster::Fragment& fr) {
+      const size_t i = static_cast<size_t>(fr.y) * static_cast<size_t>(im.width) + static_cast<size_t>(fr.x);
+      std::copy(c.begin(), c.end(), &im.pixels[i * 3]);
+    });
   }
   return im;
 }

@@ -5,6 +5,7 @@
 #include "texdefrag/core/charts.h"
 #include "texdefrag/core/topology.h"
 #include "texdefrag/eval/appearance.h"
+#include "texdefrag/eval/raster.h"
 
 #include <algorithm>
 #include <cmath>
@@ -23,38 +24,16 @@ struct OwnerMap {
   std::vector<int> owner;  // image rows (row 0 at the top, v = 1), so MIP blocks align with the image's
 };
 
-/// True when the edge a -> b of a counter-clockwise triangle owns centres lying exactly on it
-/// (top-left rule: an edge going down, or a horizontal edge going left, in y-up coordinates).
-bool owns_edge(const Vec2& a, const Vec2& b) {
-  const Vec2 d = b - a;
-  return d.y() < 0 || (d.y() == 0 && d.x() < 0);
-}
-
-void rasterise_chart_triangle(OwnerMap& m, std::array<Vec2, 3> t, int chart) {
-  double area = (t[1] - t[0]).x() * (t[2] - t[0]).y() - (t[1] - t[0]).y() * (t[2] - t[0]).x();
-  if (area == 0 || !std::isfinite(area)) return;
-  if (area < 0) std::swap(t[1], t[2]), area = -area;
-  const double x0 = std::min({t[0].x(), t[1].x(), t[2].x()}), x1 = std::max({t[0].x(), t[1].x(), t[2].x()});
-  const double y0 = std::min({t[0].y(), t[1].y(), t[2].y()}), y1 = std::max({t[0].y(), t[1].y(), t[2].y()});
-  const int ix0 = std::max(0, static_cast<int>(std::floor(x0 - 0.5))), ix1 = std::min(m.width - 1, static_cast<int>(std::ceil(x1)));
-  const int iy0 = std::max(0, static_cast<int>(std::floor(y0 - 0.5))), iy1 = std::min(m.height - 1, static_cast<int>(std::ceil(y1)));
-  bool owns[3];
-  for (int k = 0; k < 3; ++k) owns[k] = owns_edge(t[static_cast<size_t>(k)], t[static_cast<size_t>((k + 1) % 3)]);
-  for (int y = iy0; y <= iy1; ++y)
-    for (int x = ix0; x <= ix1; ++x) {
-      const Vec2 c(x + 0.5, y + 0.5);
-      bool inside = true;
-      for (int k = 0; k < 3 && inside; ++k) {
-        const Vec2& a = t[static_cast<size_t>(k)];
-        const Vec2& b = t[static_cast<size_t>((k + 1) % 3)];
-        const double e = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
-        inside = e > 0 || (e == 0 && owns[k]);
-      }
-      if (!inside) continue;
-      int& o = m.owner[static_cast<size_t>(m.height - 1 - y) * static_cast<size_t>(m.width) + static_cast<size_t>(x)];
-      if (o == kGutter) o = chart;
-      else if (o != chart) o = kMixed;
-    }
+/// Marks the texels whose centres triangle `t` (level-0 texel coordinates, y up) covers with
+/// `chart` (top-left rule of the shared rasteriser, so a texel on an edge shared by two triangles
+/// belongs to one of them).
+void rasterise_chart_triangle(OwnerMap& m, const std::array<Vec2, 3>& t, int chart) {
+  const std::array<Vec3, 3> t3 = {Vec3(t[0].x(), t[0].y(), 0), Vec3(t[1].x(), t[1].y(), 0), Vec3(t[2].x(), t[2].y(), 0)};
+  raster::scan_triangle(t3, m.width, m.height, [&](const raster::Fragment& fr) {
+    int& o = m.owner[static_cast<size_t>(m.height - 1 - fr.y) * static_cast<size_t>(m.width) + static_cast<size_t>(fr.x)];
+    if (o == kGutter) o = chart;
+    else if (o != chart) o = kMixed;
+  });
 }
 
 /// The next MIP level's footprint states: a texel is uniform when its (up to) 2x2 children are.

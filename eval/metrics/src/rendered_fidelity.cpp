@@ -3,8 +3,9 @@
 // read with trilinear MIP-mapping at the level a GPU picks, compared by PSNR and SSIM with a
 // prefiltered reference: the input at MIP level 0 rendered with supersampling and box-filtered
 // down (docs/eval.md, "Appearance"). Screen basis follows the bench's chart renders
-// (eval/bench/src/views.cpp): z up, orthographic, z-buffered.
+// (eval/bench/src/views.cpp): z up, orthographic, z-buffered by the shared rasteriser (raster.h).
 #include "texdefrag/eval/appearance.h"
+#include "texdefrag/eval/raster.h"
 
 #include <Eigen/Dense>
 
@@ -86,33 +87,15 @@ GBuffer rasterise(const TexturedMesh& mesh, const Camera& cam) {
   const size_t n = static_cast<size_t>(g.width) * static_cast<size_t>(g.height);
   g.face.assign(n, -1);
   g.bary.assign(n, {0, 0, 0});
-  std::vector<double> depth(n, -std::numeric_limits<double>::infinity());
+  raster::DepthBuffer zb(g.width, g.height);
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     std::array<Vec3, 3> t;
     for (int k = 0; k < 3; ++k) t[static_cast<size_t>(k)] = to_screen(cam, mesh.corner_position(f, k));
-    const double area = (t[1].x() - t[0].x()) * (t[2].y() - t[0].y()) - (t[1].y() - t[0].y()) * (t[2].x() - t[0].x());
-    if (area == 0 || !std::isfinite(area)) continue;
-    const int bx0 = std::max(0, static_cast<int>(std::floor(std::min({t[0].x(), t[1].x(), t[2].x()}))));
-    const int bx1 = std::min(g.width - 1, static_cast<int>(std::ceil(std::max({t[0].x(), t[1].x(), t[2].x()}))));
-    const int by0 = std::max(0, static_cast<int>(std::floor(std::min({t[0].y(), t[1].y(), t[2].y()}))));
-    const int by1 = std::min(g.height - 1, static_cast<int>(std::ceil(std::max({t[0].y(), t[1].y(), t[2].y()}))));
-    for (int y = by0; y <= by1; ++y)
-      for (int x = bx0; x <= bx1; ++x) {
-        const double cx = x + 0.5, cy = y + 0.5;
-        double w[3];
-        for (int k = 0; k < 3; ++k) {
-          const Vec3& a = t[static_cast<size_t>((k + 1) % 3)];
-          const Vec3& b = t[static_cast<size_t>((k + 2) % 3)];
-          w[k] = ((b.x() - a.x()) * (cy - a.y()) - (b.y() - a.y()) * (cx - a.x())) / area;
-        }
-        if (w[0] < 0 || w[1] < 0 || w[2] < 0) continue;
-        const double z = w[0] * t[0].z() + w[1] * t[1].z() + w[2] * t[2].z();
-        const size_t i = static_cast<size_t>(y) * static_cast<size_t>(g.width) + static_cast<size_t>(x);
-        if (z <= depth[i]) continue;
-        depth[i] = z;
-        g.face[i] = static_cast<int>(f);
-        g.bary[i] = {static_cast<float>(w[0]), static_cast<float>(w[1]), static_cast<float>(w[2])};
-      }
+    zb.draw(t, [&](const raster::Fragment& fr) {
+      const size_t i = static_cast<size_t>(fr.y) * static_cast<size_t>(g.width) + static_cast<size_t>(fr.x);
+      g.face[i] = static_cast<int>(f);
+      g.bary[i] = {static_cast<float>(fr.bary[0]), static_cast<float>(fr.bary[1]), static_cast<float>(fr.bary[2])};
+    });
   }
   return g;
 }
