@@ -115,7 +115,7 @@ json folder_tasks(const fs::path& root, const fs::path& exclude) {
 /// tileset's folder (output_dir "."). The tileset JSONs and the other contents are written by
 /// `finish` once every task is finished (their 3DTILES_content_gltf lists depend on the outputs).
 json tileset_tasks(const fs::path& tileset) {
-  const TilesetPlan plan = plan_tileset(tileset.string());
+  const TilesetPlan plan = plan_tileset(tileset.string(), /*keep_going=*/true);
   const fs::path root = normal_absolute(tileset.parent_path().empty() ? fs::path(".") : tileset.parent_path());
   json out = {{"input", normal_absolute(tileset).string()}, {"root", root.string()}, {"kind", "tileset"},
               {"copies", json::array()}, {"tasks", json::array()},
@@ -143,6 +143,25 @@ json tileset_tasks(const fs::path& tileset) {
                             {"contents", m.contents},
                             {"args", args},
                             {"files", files}});
+  }
+  // A missing content or an unreadable external tileset is a task of its own that fails with the
+  // reader's error (naming the file and the tileset naming it); the other tasks run.
+  for (const TilesetBroken& b : plan.tileset.broken) {
+    const fs::path rel = normal_absolute(b.path).lexically_relative(root);
+    std::string id = (rel.parent_path() / rel.stem()).generic_string();
+    if (!ids.insert(id).second) id = rel.generic_string();
+    ids.insert(id);
+    const std::string dir = rel.parent_path().generic_string();
+    out["tasks"].push_back({{"id", id},
+                            {"input", normal_absolute(tileset).string()},
+                            {"output_dir", "."},
+                            {"stem", id},
+                            {"tile", dir.empty() ? id : dir},
+                            {"level", level_of(rel.stem().string())},
+                            {"contents", {rel.generic_string()}},
+                            {"args", {"--contents", rel.generic_string()}},
+                            {"files", {normal_absolute(tileset).string(), normal_absolute(b.tileset).string()}},
+                            {"error", b.error}});
   }
   if (out["tasks"].empty()) throw std::runtime_error(tileset.string() + ": the tileset has no glTF or b3dm content");
   return out;

@@ -89,7 +89,7 @@ bool is_tileset(const std::string& path) {
   }
 }
 
-Tileset read_tileset(const std::string& path) {
+Tileset read_tileset(const std::string& path, bool keep_going) {
   Tileset ts;
   ts.path = path;
   const fs::path root = fs::absolute(fs::path(path).parent_path()).lexically_normal();
@@ -111,10 +111,25 @@ Tileset read_tileset(const std::string& path) {
         if (rel.empty() || *rel.begin() == "..")
           throw TilesetError(file + ": content '" + uri + "' lies outside " + root.string() + " (the output mirrors that folder)");
         std::error_code ec;
-        if (!fs::is_regular_file(p, ec)) throw TilesetError(p + ": content not found (named by " + file + ")");
+        if (!fs::is_regular_file(p, ec)) {
+          const std::string error = p + ": content not found (named by " + file + ")";
+          if (!keep_going) throw TilesetError(error);
+          ts.broken.push_back({p, file, error});
+          continue;
+        }
         const std::string e = lower_ext(p);
         if (e == "json") {
-          visit(p, file);
+          // keep_going: an external tileset that fails leaves nothing of its subtree behind.
+          const size_t n_tilesets = ts.tilesets.size(), n_contents = ts.contents.size(), n_broken = ts.broken.size();
+          try {
+            visit(p, file);
+          } catch (const TilesetError& err) {
+            if (!keep_going) throw;
+            ts.tilesets.resize(n_tilesets);
+            ts.contents.resize(n_contents);
+            ts.broken.resize(n_broken);
+            ts.broken.push_back({p, file, err.what()});
+          }
           continue;
         }
         ts.contents.push_back({uri, p, file, e});
@@ -204,9 +219,9 @@ std::string output_tileset_json(const std::string& path, const std::set<std::str
 
 }  // namespace
 
-TilesetPlan plan_tileset(const std::string& path) {
+TilesetPlan plan_tileset(const std::string& path, bool keep_going) {
   TilesetPlan plan;
-  plan.tileset = read_tileset(path);
+  plan.tileset = read_tileset(path, keep_going);
   const fs::path root = fs::absolute(fs::path(path).parent_path()).lexically_normal();
   std::vector<GltfInput> inputs;
   std::vector<const TilesetContent*> input_content;
@@ -273,15 +288,22 @@ std::vector<size_t> selected_models(const TilesetPlan& plan, const std::vector<s
     found.insert(cs.begin(), cs.end());
     out.push_back(m);
   }
-  for (const std::string& w : want)
-    if (!found.count(w)) throw TilesetError(plan.tileset.path + ": '" + w + "' is not a glTF or b3dm content of this tileset");
+  const fs::path root = fs::absolute(fs::path(plan.tileset.path).parent_path()).lexically_normal();
+  for (const std::string& w : want) {
+    if (found.count(w)) continue;
+    for (const TilesetBroken& b : plan.tileset.broken)
+      if (rel_name(b.path, root) == w) throw TilesetError(b.error);
+    throw TilesetError(plan.tileset.path + ": '" + w + "' is not a glTF or b3dm content of this tileset");
+  }
   return out;
 }
 
 }  // namespace
 
 nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions& options) {
-  const TilesetPlan plan = plan_tileset(options.tileset);
+  // note: one model at a time (batch tasks) reads past broken parts of the tree that are not its own;
+  // a whole run stops at the first (nothing is written, so a partial tileset never looks complete).
+  const TilesetPlan plan = plan_tileset(options.tileset, !options.contents.empty());
   const Tileset& ts = plan.tileset;
   const fs::path root = fs::absolute(fs::path(options.tileset).parent_path()).lexically_normal();
   const std::vector<size_t> models = selected_models(plan, options.contents);

@@ -135,6 +135,98 @@ class DaskBatchTest(unittest.TestCase):
         print(f"worker 0 killed after {killed_at} finished tasks; {len(attempts)} attempts recorded", file=sys.stderr)
 
 
+class DaskSchedulerLostTest(unittest.TestCase):
+    """The scheduler SIGKILLed in the middle of a batch: the batch stops with an error naming the
+    scheduler's address (exit 2), the journal keeps every finished task and records none as failed
+    for the loss; the dead address is then unreachable (exit 2, journal unchanged); a rerun on a
+    new scheduler finishes the rest without redoing a finished task, outputs as a local run's."""
+    procs = []
+    start = classmethod(DaskBatchTest.start.__func__)
+    tearDownClass = classmethod(DaskBatchTest.tearDownClass.__func__)
+
+    @classmethod
+    def cluster(cls, name, workers):
+        port = free_port()
+        addr = f"tcp://127.0.0.1:{port}"
+        sched = cls.start([which("dask-scheduler"), "--host", "127.0.0.1", "--port", str(port), "--dashboard-address",
+                           ":0", "--no-show"], os.path.join(cls.work, f"{name}-scheduler.log"))
+        for i in range(workers):
+            cls.start([which("dask-worker"), addr, "--nthreads", "1", "--no-nanny", "--host", "127.0.0.1",
+                       "--dashboard-address", ":0", "--name", f"{name}-w{i}",
+                       "--local-directory", os.path.join(cls.work, f"{name}-w{i}")],
+                      os.path.join(cls.work, f"{name}-worker{i}.log"))
+        return addr, sched
+
+    @classmethod
+    def setUpClass(cls):
+        cls.work = os.path.join(common.WORKDIR, "dask_lost")
+        shutil.rmtree(cls.work, ignore_errors=True)
+        os.makedirs(cls.work)
+        cls.prod = common.make_production(os.path.join(common.WORKDIR, "prod8"), 8, seed=11,
+                                          min_faces=2000, max_faces=4000)
+
+    def test_scheduler_lost_mid_batch(self):
+        inp = common.copy_production(self.prod, os.path.join(self.work, "in"))
+        ref_in = common.copy_production(self.prod, os.path.join(self.work, "ref_in"))
+        ref_out = os.path.join(self.work, "ref_out")
+        p = batch(ref_in, "-o", ref_out, "--config", common.CONFIG, "-j", "2")
+        self.assertEqual(p.returncode, 0, p.stderr)
+
+        addr, sched = self.cluster("first", 2)
+        out = os.path.join(self.work, "out")
+        cmd = [common.EXE, "batch", inp, "-o", out, "--config", common.CONFIG, "--scheduler", addr,
+               "--connect-timeout", "60"]
+        run = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        journal = os.path.join(out, ".texdefrag-batch", "journal.sqlite")
+        killed_at, deadline = None, time.monotonic() + 120
+        while time.monotonic() < deadline and run.poll() is None:
+            time.sleep(0.1)
+            if not os.path.exists(journal):
+                continue
+            try:
+                tasks, _ = journal_rows(out)
+            except Exception:  # noqa: BLE001 (the journal is being created)
+                continue
+            done = sum(1 for t in tasks.values() if t["status"] == "finished")
+            if 2 <= done <= 5:
+                sched.send_signal(signal.SIGKILL)
+                killed_at = done
+                break
+        stdout, stderr = run.communicate(timeout=240)
+        self.assertIsNotNone(killed_at, "the batch ended before the scheduler could be killed:\n" + stderr)
+        self.assertEqual(run.returncode, 2, stderr)
+        self.assertIn(f"lost the Dask scheduler at {addr}", stderr)
+        tasks, attempts = journal_rows(out)
+        finished = {tid for tid, t in tasks.items() if t["status"] == "finished"}
+        self.assertGreaterEqual(len(finished), killed_at)
+        self.assertLess(len(finished), 8, "every task finished: the loss came too late to test anything")
+        self.assertEqual([t for t in tasks.values() if t["status"] == "failed"], [], "a task failed for the loss")
+        for tid in finished:
+            for o in tasks[tid]["outputs"]:
+                self.assertTrue(os.path.isfile(os.path.join(out, o)), o)
+        n_attempts = len(attempts)
+
+        # The dead address: unreachable, a clear error, the journal unchanged.
+        p = batch(inp, "-o", out, "--config", common.CONFIG, "--scheduler", addr, "--connect-timeout", "3")
+        self.assertEqual(p.returncode, 2, p.stderr)
+        self.assertIn(f"cannot reach the Dask scheduler at {addr}", p.stderr)
+        self.assertEqual(journal_rows(out), (tasks, attempts))
+
+        # A new scheduler finishes the rest; the finished tasks are not redone.
+        addr2, _ = self.cluster("second", 1)
+        p = batch(inp, "-o", out, "--config", common.CONFIG, "--scheduler", addr2, "--connect-timeout", "60")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        tasks2, attempts2 = journal_rows(out)
+        self.assertTrue(all(t["status"] == "finished" for t in tasks2.values()), tasks2)
+        self.assertEqual(attempts2[:n_attempts], attempts)
+        redone = [a["task_id"] for a in attempts2[n_attempts:]]
+        self.assertEqual(sorted(redone), sorted(set(tasks2) - finished), "a finished task ran again")
+        self.assertEqual(leftovers(out), [])
+        self.assertEqual(model_files(out), model_files(ref_out))
+        print(f"scheduler killed after {killed_at} finished tasks; {len(finished)} kept, {len(redone)} redone "
+              "on a new scheduler", file=sys.stderr)
+
+
 if __name__ == "__main__":
     try:
         import distributed  # noqa: F401

@@ -198,6 +198,55 @@ class BatchProductionsTest(unittest.TestCase):
         self.assertFalse(os.path.exists(os.path.join(out, "sub", "c.glb")))
         self.assertEqual(leftovers(out), [])
 
+    def test_tileset_with_a_missing_content_and_a_missing_external_tileset(self):
+        """A content file and an external tileset that the tree names but that are missing: each is
+        a task of its own, failed at once (no attempt) with an error naming the file and the tileset
+        naming it; the other tasks are listed and run; no tileset JSON is written. Once the files
+        are back, a rerun runs those two tasks only and finishes the production."""
+        inp, out = self.fresh("tileset_missing")
+        ts = make_tileset(inp)
+        saved = os.path.join(os.path.dirname(inp), "saved")
+        os.makedirs(saved)
+        for f in ("a.glb", "sub/ext.json"):
+            os.rename(os.path.join(inp, f), os.path.join(saved, os.path.basename(f)))
+        t = tasks_json(ts)
+        listed = {x["id"]: x for x in t["tasks"]}
+        self.assertEqual(sorted(listed), ["a", "shared/s0", "sub/ext"])
+        self.assertEqual(listed["a"]["error"], f"{os.path.join(inp, 'a.glb')}: content not found (named by {ts})")
+        self.assertEqual(listed["sub/ext"]["error"],
+                         f"{os.path.join(inp, 'sub', 'ext.json')}: content not found (named by {ts})")
+        self.assertNotIn("error", listed["shared/s0"])
+        # texdefrag run on the missing model alone fails with the same error.
+        p = subprocess.run([common.EXE, "run", ts, "--contents", "a.glb", "-c", common.CONFIG, "-o",
+                            os.path.join(os.path.dirname(out), "one")], capture_output=True, text=True)
+        self.assertNotEqual(p.returncode, 0)
+        self.assertIn(f"a.glb: content not found (named by {ts})", p.stderr)
+
+        p = batch(ts, "-o", out, "--config", common.CONFIG, "-j", "2")
+        self.assertEqual(p.returncode, 1, p.stderr)
+        tasks, attempts = journal_rows(out)
+        self.assertEqual({k: v["status"] for k, v in tasks.items()},
+                         {"a": "failed", "shared/s0": "finished", "sub/ext": "failed"})
+        self.assertEqual(tasks["a"]["error"], listed["a"]["error"])
+        self.assertEqual(tasks["sub/ext"]["error"], listed["sub/ext"]["error"])
+        self.assertEqual([a["task_id"] for a in attempts], ["shared/s0"])  # the missing ones never ran
+        self.assertIn("a.glb: content not found", p.stderr)
+        self.assertTrue(os.path.isfile(os.path.join(out, "shared", "s1.glb")))
+        self.assertFalse(os.path.exists(os.path.join(out, "tileset.json")))
+        self.assertEqual(leftovers(out), [])
+
+        for f in ("a.glb", "sub/ext.json"):
+            os.rename(os.path.join(saved, os.path.basename(f)), os.path.join(inp, f))
+        p = batch(ts, "-o", out, "--config", common.CONFIG, "--dry-run")
+        decisions = dict(line.split("\t") for line in p.stdout.splitlines())
+        self.assertEqual(decisions, {"a": "input changed", "shared/s0": "skip", "sub/c": "new"})
+        p = batch(ts, "-o", out, "--config", common.CONFIG, "-j", "2")
+        self.assertEqual(p.returncode, 0, p.stderr)
+        tasks, attempts = journal_rows(out)
+        self.assertEqual(sorted(a["task_id"] for a in attempts), ["a", "shared/s0", "sub/c"])
+        self.assertEqual(tasks["a"]["status"], "finished")
+        self.assertTrue(os.path.isfile(os.path.join(out, "tileset.json")))
+
 
 def make_osgb_production(root, work):
     """metadata.xml + three level files in two Tile_* folders, converted from synthetic OBJ tiles by

@@ -119,16 +119,15 @@ class Batch:
         todo = []
         for tid, t in self.tasks.items():
             rec = records.get(tid)
+            if t.get("error"):  # the listing could not read it (a missing content, naming its tileset)
+                self.fail_unstarted(t, t["error"])
+                continue
             try:
                 ihash, files = plan.input_hash(t, rec)
             except OSError as e:
                 msg = str(e) if isinstance(e, FileNotFoundError) and e.args and not e.filename else \
                     f"cannot read an input of task {tid}: {e}"
-                self.counts["failed"] += 1
-                if not self.a.dry_run:
-                    self.journal.fail_unstarted(t, msg)
-                if not self.a.quiet or self.a.dry_run:
-                    err(msg)
+                self.fail_unstarted(t, msg)
                 continue
             reason = plan.decide(t, rec, ihash, self.chash, self.out, self.a.retry_failed)
             if reason == "skip":
@@ -141,6 +140,16 @@ class Batch:
             if self.a.dry_run:
                 print(f"{tid}\t{reason}")
         return todo
+
+    def fail_unstarted(self, t, msg):
+        """A task that cannot start (its file is missing): failed with msg, never submitted."""
+        self.counts["failed"] += 1
+        if not self.a.dry_run:
+            self.journal.fail_unstarted(t, msg)
+        if not self.a.quiet or self.a.dry_run:
+            err(msg)
+        if self.a.dry_run:
+            print(f"{t['id']}\tcannot start")
 
     # -- run ---------------------------------------------------------------------------------
     def run_options(self):
@@ -165,9 +174,10 @@ class Batch:
         commit_mod.clear_staging(self.staging_root)
         os.makedirs(self.staging_root, exist_ok=True)
         self.executor = self.make_executor()
+        self.executor_desc = self.executor.describe()  # note: not asked again once the executor is closed
         if not self.a.quiet:
             err(f"{len(self.tasks)} task(s): {self.counts['skipped']} already finished, "
-                f"{len(todo)} to run, {self.counts['failed']} failed and not retried; on {self.executor.describe()}")
+                f"{len(todo)} to run, {self.counts['failed']} failed and not retried; on {self.executor_desc}")
         capacity = self.a.jobs if not self.a.scheduler else 1 << 30
         queue = []
         for t, reason, ihash, files in todo:
@@ -192,7 +202,7 @@ class Batch:
                     ended_now += 1
                 progress.update(self.counts["finished"], self.counts["failed"], self.executor.running(), ended_now,
                                 force=True)
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, ExecutorError):
             progress.end()
             self.executor.close(cancel=True)
             raise
@@ -274,7 +284,7 @@ class Batch:
             # looks complete to a viewer.
             copied = (self.run_finish() if failed == 0 else True) and copied
         info = {"input": self.input, "output": self.out, "config": self.config, "config_hash": self.chash,
-                "sets": self.a.set, "executor": self.executor.describe() if hasattr(self, "executor") else None,
+                "sets": self.a.set, "executor": getattr(self, "executor_desc", None),
                 "batch_id": self.batch_id, "host": socket.gethostname(), "started_at": started,
                 "wall_s": getattr(self, "wall_s", 0.0), "this_batch": dict(self.counts)}
         s, md, note = summary_mod.write_all(self.state, tasks, self.out, self.label, info, self.a.plots_dir)

@@ -6,6 +6,7 @@ dict. Neither touches the journal: the client does, in the order results arrive.
 
 import concurrent.futures
 import os
+import time
 
 from . import runner
 
@@ -68,6 +69,7 @@ class DaskExecutor:
             raise ExecutorError(f"cannot reach the Dask scheduler at {address} "
                                 f"(waited {connect_timeout:g} s): {e}") from None
         self.address = address
+        self.connect_timeout = connect_timeout
         try:
             self.client.wait_for_workers(1, timeout=connect_timeout)
         except (TimeoutError, OSError) as e:
@@ -75,8 +77,8 @@ class DaskExecutor:
             raise ExecutorError(f"the Dask scheduler at {address} has no worker after {connect_timeout:g} s "
                                 f"({e}); start dask-worker {address} on the machines (docs/batch.md)") from None
         self._check(check_paths)
-        self.ac = distributed.as_completed([], loop=self.client.loop, with_results=False)
         self.pending = {}
+        self.lost_since = None
 
     def _check(self, paths):
         """Every connected worker must see the executable, the configuration and the output folder."""
@@ -98,19 +100,48 @@ class DaskExecutor:
 
     def submit(self, key, spec):
         # pure=False: each attempt is new work even with the same arguments; one key per attempt.
+        self._check_scheduler()
         fut = self.client.submit(runner.run_attempt, spec, key=f"texdefrag-{os.path.basename(spec['staging'])}",
                                  pure=False, retries=0)
         self.pending[fut.key] = (key, fut, spec)
-        self.ac.add(fut)
 
     def running(self):
         return len(self.pending)
 
+    def _check_scheduler(self, cancelled=False):
+        """Raises ExecutorError when the scheduler is lost: the client closed, or disconnected and
+        either its attempts were cancelled by the disconnection or it has not reconnected within
+        the connect timeout. The attempts then still running are left `running` in the journal (the
+        next batch redoes them as interrupted); none is recorded as failed for the loss."""
+        status = str(getattr(self.client, "status", "running"))
+        if status == "running":
+            self.lost_since = None
+            return
+        now = time.monotonic()
+        self.lost_since = self.lost_since or now
+        if cancelled or status in ("closing", "closed", "failed") or now - self.lost_since > self.connect_timeout:
+            raise ExecutorError(
+                f"lost the Dask scheduler at {self.address} in the middle of the batch (client {status}, "
+                f"{len(self.pending)} attempt(s) running): finished tasks are recorded; run the same command again "
+                "with a running scheduler, or without --scheduler, to finish the rest")
+
     def next_done(self, timeout=None):
-        try:
-            fut = next(self.ac)
-        except StopIteration:
+        self._check_scheduler()
+        if not self.pending:
             return None
+        # note: polled (Future.done reads the client's local state), not distributed.wait, which
+        # needs a default client and blocks on the event loop of a client that may have lost its scheduler.
+        deadline = time.monotonic() + (timeout or 0)
+        while True:
+            done = [f for _, f, _ in self.pending.values() if f.done()]
+            if done or time.monotonic() >= deadline:
+                break
+            time.sleep(0.05)
+        if not done:
+            return None
+        fut = sorted(done, key=lambda f: f.key)[0]
+        if fut.status == "cancelled":
+            self._check_scheduler(cancelled=True)
         key, _, spec = self.pending.pop(fut.key)
         try:
             return key, fut.result()

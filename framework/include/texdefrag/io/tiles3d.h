@@ -30,10 +30,19 @@ struct TilesetContent {
   std::string kind;     ///< "glb", "gltf", "b3dm", or the lower-case extension of other contents
 };
 
+/// A content or external tileset of the tree that cannot be read (missing file, unreadable or
+/// invalid external tileset JSON), kept aside by read_tileset(path, true).
+struct TilesetBroken {
+  std::string path;     ///< the file as resolved
+  std::string tileset;  ///< the tileset JSON naming it
+  std::string error;    ///< the error read_tileset(path) throws for it, naming both
+};
+
 struct Tileset {
   std::string path;                      ///< the entry tileset JSON
   std::vector<std::string> tilesets;     ///< every tileset JSON, entry first, then external ones as reached
   std::vector<TilesetContent> contents;  ///< every content that is not an external tileset, in tree order
+  std::vector<TilesetBroken> broken;     ///< keep_going only: what could not be read (nothing of it is in the lists above)
 };
 
 /// True when `path` looks like a tileset JSON (a .json file whose object has "asset" and "root").
@@ -41,8 +50,11 @@ bool is_tileset(const std::string& path);
 
 /// Reads a tileset and its external tilesets (recursively). Throws TilesetError naming the file
 /// and its parent tileset for a missing or unreadable tileset or content, a URI outside the entry
-/// tileset's folder, implicit tiling, or an external tileset cycle.
-Tileset read_tileset(const std::string& path);
+/// tileset's folder, implicit tiling, or an external tileset cycle. With keep_going, a missing
+/// content and an external tileset that cannot be read (any of those errors inside it) are listed
+/// in `broken` instead (with the error they would throw), and the rest of the tree is read; errors
+/// of the entry tileset itself still throw.
+Tileset read_tileset(const std::string& path, bool keep_going = false);
 
 /// A Batched 3D Model: header tables kept as bytes, the GLB separate.
 struct B3dm {
@@ -74,8 +86,10 @@ struct TilesetPlan {
 /// Reads the tileset (read_tileset) and groups its contents into models. Reads only each
 /// content's JSON; a content that cannot be read (truncated GLB, bad b3dm header) is a model of
 /// its own, whose run then fails naming it, so one broken tile does not stop the others. Throws
-/// TilesetError naming the file (and the tileset naming it) for a broken tileset tree (read_tileset).
-TilesetPlan plan_tileset(const std::string& path);
+/// TilesetError naming the file (and the tileset naming it) for a broken tileset tree
+/// (read_tileset), unless keep_going: then missing contents and unreadable external tilesets are
+/// in plan.tileset.broken and the models are those of the rest of the tree.
+TilesetPlan plan_tileset(const std::string& path, bool keep_going = false);
 
 struct TilesetRunOptions {
   std::string tileset;     ///< entry tileset JSON
