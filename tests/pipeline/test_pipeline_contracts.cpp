@@ -12,10 +12,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
+#include <utility>
 
 namespace fs = std::filesystem;
 using namespace texdefrag;
@@ -117,6 +119,20 @@ class RotatingPacker final : public Packer {
 class FoldingMerger final : public Merger {
  public:
   void merge(StageContext& ctx) override { ctx.atlas.wedge_uv[wedge_at(ctx.atlas, Vec2(19.2, 19.2))] = Vec2(18.56, 19.84); }
+};
+
+/// A detector that puts every textured face in region 0 and hands the mergers planarity weights
+/// W (flatness, compactness, normal) as a CPI detector does; W = {-1, ...}: none.
+template <int Flat, int Compact, int Normal>
+class WeightedDetector final : public Detector {
+ public:
+  void detect(StageContext& ctx) override {
+    ctx.regions.face_region.assign(ctx.mesh->faces.size(), -1);
+    for (size_t f = 0; f < ctx.mesh->faces.size(); ++f)
+      if (ctx.mesh->faces[f].page != kNoPage) ctx.regions.face_region[f] = 0;
+    ctx.regions.num_regions = 1;
+    if (Flat >= 0) ctx.regions.planarity_weights = std::array<double, 3>{Flat / 10.0, Compact / 10.0, Normal / 10.0};
+  }
 };
 
 template <class S>
@@ -281,6 +297,40 @@ TEST(PipelineContracts, TheReportNamesEachFigureOnce) {
     EXPECT_LE(t.x(), 1.0);
     EXPECT_GE(t.y(), 0.0);
     EXPECT_LE(t.y(), 1.0);
+  }
+}
+
+// Issue 11: "the merger's planarity weights are never bound to the detector's". The merge engine
+// orders candidates by the planarity index; its weights are the detector's (Regions::
+// planarity_weights), the paper's defaults (0.4, 0.3, 0.3) when the detector declares none. On the
+// bundled building, flatness-only and normal-only weights give other merges than the defaults,
+// and weights equal to the defaults give exactly the merges of a detector without weights.
+TEST(PipelineStages, MergersScoreChartsWithTheDetectorsPlanarityWeights) {
+  register_once<WeightedDetector<-1, 0, 0>>("detectors.test_no_weights", StageKind::Detector);
+  register_once<WeightedDetector<4, 3, 3>>("detectors.test_default_weights", StageKind::Detector);
+  register_once<WeightedDetector<10, 0, 0>>("detectors.test_flatness_weights", StageKind::Detector);
+  register_once<WeightedDetector<0, 0, 10>>("detectors.test_normal_weights", StageKind::Detector);
+  const auto merged = [](const std::string& detector, const std::string& merger) {
+    RunOptions ro;
+    ro.input = std::string(source_dir()) + "/examples/building/building.obj";
+    ro.write_output = false;
+    ro.stop_after = "merger";
+    Atlas atlas;
+    int charts_in = 0;
+    ro.on_stage = [&](const std::string& section, const StageContext& ctx) {
+      if (section == "detector") charts_in = ctx.atlas.num_charts;
+      if (section == "merger") atlas = ctx.atlas;
+    };
+    run_pipeline(parse_config({{"detector", {{"type", detector}}}, {"merger", {{"type", merger}}}}, "<test>"), ro);
+    EXPECT_LT(atlas.num_charts, charts_in / 2) << detector;  // the merger did merge
+    return std::make_pair(atlas.face_chart, atlas.num_charts);
+  };
+  for (const std::string merger : {"mergers.optcuts", "mergers.arap"}) {
+    SCOPED_TRACE(merger);
+    const auto none = merged("detectors.test_no_weights", merger);
+    EXPECT_EQ(merged("detectors.test_default_weights", merger), none);
+    EXPECT_NE(merged("detectors.test_flatness_weights", merger), none);
+    EXPECT_NE(merged("detectors.test_normal_weights", merger), none);
   }
 }
 
