@@ -181,13 +181,15 @@ void count_features(const RawMesh& raw, const Shape& shape, SynthTruth& t) {
     if (shape.clutter_planes_from >= 0 && p >= shape.clutter_planes_from) ++t.clutter_faces;
 }
 
-}  // namespace
 
-void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>& views, const SynthOptions& options,
-                 Rng& rng, SynthModel& model) {
+// build_atlas's steps, in order. `hard` is the hard features' own random stream; its draws happen
+// in the same order as before the split, so the same seed gives the same files.
+
+/// Step 1: charts are faces joined across shared edges when they have the same view. Returns each
+/// chart's faces, charts numbered in order of their first face; counts into `truth` the edges
+/// between faces of two planes (plane_edges) and those of them inside one chart.
+std::vector<std::vector<int>> join_charts(const RawMesh& raw, const std::vector<int>& views, SynthTruth& truth) {
   const size_t F = raw.tris.size();
-  const std::vector<Camera>& cams = model.truth.cameras;
-  // 1. charts: faces joined across shared edges when they have the same view
   std::vector<int> parent(F);
   std::iota(parent.begin(), parent.end(), 0);
   {
@@ -205,14 +207,14 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
           if (views[static_cast<size_t>(g)] == views[f]) parent[static_cast<size_t>(find(parent, g))] = find(parent, static_cast<int>(f));
       }
     // charts across planes: edges between faces of two planes that lie inside one chart
-    model.truth.plane_edges = model.truth.plane_edges_in_chart = 0;
+    truth.plane_edges = truth.plane_edges_in_chart = 0;
     for (const auto& [key, fs] : edge_faces)
       if (fs.size() == 2 && raw.face_plane[static_cast<size_t>(fs[0])] != raw.face_plane[static_cast<size_t>(fs[1])]) {
-        ++model.truth.plane_edges;
-        if (find(parent, fs[0]) == find(parent, fs[1])) ++model.truth.plane_edges_in_chart;
+        ++truth.plane_edges;
+        if (find(parent, fs[0]) == find(parent, fs[1])) ++truth.plane_edges_in_chart;
       }
   }
-  std::vector<int> chart_of(F), root_chart(F, -1);
+  std::vector<int> root_chart(F, -1);
   std::vector<std::vector<int>> chart_faces;
   for (size_t f = 0; f < F; ++f) {
     const int r = find(parent, static_cast<int>(f));
@@ -220,14 +222,20 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
       root_chart[static_cast<size_t>(r)] = static_cast<int>(chart_faces.size());
       chart_faces.emplace_back();
     }
-    chart_of[f] = root_chart[static_cast<size_t>(r)];
-    chart_faces[static_cast<size_t>(chart_of[f])].push_back(static_cast<int>(f));
+    chart_faces[static_cast<size_t>(root_chart[static_cast<size_t>(r)])].push_back(static_cast<int>(f));
   }
+  return chart_faces;
+}
+
+/// Step 2: per chart, its local vertices and their texel coordinates (y up) in the camera of its
+/// first face's view, mirrored, distorted and given an exposure as the options say, then scaled
+/// down to fit a page when larger; finally guests are laid over hosts (overlap_fraction).
+std::vector<Chart> make_charts(const RawMesh& raw, const std::vector<std::vector<int>>& chart_faces,
+                               const std::vector<int>& views, const std::vector<Camera>& cams,
+                               const SynthOptions& options, Rng& hard) {
   const size_t C = chart_faces.size();
-  // 2. per chart: local vertices and their texel coordinates (y up) in the chart's camera
   std::vector<Chart> charts(C);
-  Rng hard(options.seed, 0x4A5D);  // the hard features' own stream: default outputs unchanged
-  choose_mirrored(chart_faces, options.mirror_fraction, F, hard, charts);
+  choose_mirrored(chart_faces, options.mirror_fraction, raw.tris.size(), hard, charts);
   std::unordered_map<int, int> local;
   for (size_t c = 0; c < C; ++c) {
     Chart& ch = charts[c];
@@ -257,16 +265,29 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
     ch.h = h * s;
   }
   choose_hosts(charts, options.overlap_fraction, hard);
-  // 3. shelf packing, tallest first
-  std::vector<int> order(C);
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+  return charts;
+}
+
+/// The charts' placement: packing order (tallest first), pages, each page's used extent (texels).
+struct Packing {
+  std::vector<int> order;
+  std::vector<Vec2> used;
+  int num_pages = 1;
+};
+
+/// Step 3: shelf packing of the charts that are not guests, tallest first, `padding` texels
+/// around each, on pages of page_size; a guest takes its host's page at a random offset inside it.
+Packing shelf_pack(std::vector<Chart>& charts, const SynthOptions& options, Rng& hard) {
+  Packing pk;
+  pk.order.resize(charts.size());
+  std::iota(pk.order.begin(), pk.order.end(), 0);
+  std::stable_sort(pk.order.begin(), pk.order.end(), [&](int a, int b) {
     return std::ceil(charts[static_cast<size_t>(a)].h) > std::ceil(charts[static_cast<size_t>(b)].h);
   });
   const int P = options.page_size, pad = options.padding;
   int page = 0, x = 0, y = 0, shelf = 0;
-  std::vector<Vec2> used(1, Vec2::Zero());
-  for (int id : order) {
+  pk.used.assign(1, Vec2::Zero());
+  for (int id : pk.order) {
     Chart& ch = charts[static_cast<size_t>(id)];
     if (ch.host >= 0) continue;  // laid over its host below
     const int cw = static_cast<int>(std::ceil(ch.w)) + 2 * pad + 1, chh = static_cast<int>(std::ceil(ch.h)) + 2 * pad + 1;
@@ -277,44 +298,58 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
     }
     if (y + chh > P) {
       ++page;
-      used.emplace_back(0, 0);
+      pk.used.emplace_back(0, 0);
       x = y = shelf = 0;
     }
     ch.page = page;
     ch.at = Vec2(x + pad, y + pad);
     x += cw;
     shelf = std::max(shelf, chh);
-    used[static_cast<size_t>(page)] = used[static_cast<size_t>(page)].cwiseMax(Vec2(x, y + chh));
+    pk.used[static_cast<size_t>(page)] = pk.used[static_cast<size_t>(page)].cwiseMax(Vec2(x, y + chh));
   }
-  const int num_pages = page + 1;
+  pk.num_pages = page + 1;
   for (Chart& ch : charts) {
     if (ch.host < 0) continue;
     const Chart& host = charts[static_cast<size_t>(ch.host)];
     ch.page = host.page;
     ch.at = host.at + Vec2(std::floor(hard.uniform(0, host.w - ch.w)), std::floor(hard.uniform(0, host.h - ch.h)));
   }
-  // 4. mesh: pages, materials, faces grouped by page then packing order
-  TexturedMesh& mesh = model.mesh;
-  mesh = TexturedMesh();
-  for (int k = 0; k < num_pages; ++k) {
+  return pk;
+}
+
+/// Step 4a: one material and page per packed page (`<name>_<k>.jpg`); full pages keep page_size,
+/// the last one is trimmed to the power of two covering its charts.
+void add_pages(TexturedMesh& mesh, const std::string& name, const Packing& pk, int page_size) {
+  const int P = page_size;
+  for (int k = 0; k < pk.num_pages; ++k) {
     Material m;
     m.name = "material_" + std::to_string(k);
     m.extra_lines = {"Ka 1 1 1", "Kd 1 1 1", "Ks 0 0 0", "Ns 0"};
-    m.map_kd = model.name + "_" + std::to_string(k) + ".jpg";
+    m.map_kd = name + "_" + std::to_string(k) + ".jpg";
     mesh.materials.push_back(m);
     Page pg;
     pg.material = m.name;
     pg.image_path = m.map_kd;
     // full pages stay full; the last one is trimmed to the power of two covering its charts
-    pg.width = k + 1 < num_pages ? P : std::min(P, next_pow2(static_cast<int>(used[static_cast<size_t>(k)].x())));
-    pg.height = k + 1 < num_pages ? P : std::min(P, next_pow2(static_cast<int>(used[static_cast<size_t>(k)].y())));
+    pg.width = k + 1 < pk.num_pages ? P : std::min(P, next_pow2(static_cast<int>(pk.used[static_cast<size_t>(k)].x())));
+    pg.height = k + 1 < pk.num_pages ? P : std::min(P, next_pow2(static_cast<int>(pk.used[static_cast<size_t>(k)].y())));
     mesh.pages.push_back(pg);
   }
+}
+
+/// Step 4b: the charts' vertices, texture coordinates and faces, grouped by page then packing
+/// order (zero_uv_fraction of the faces get three coincident texture coordinates of their own),
+/// and the truth of every face in that order (plane, class, view, chart, mirrored, zero UV), the
+/// chart count, the overlapping chart pairs and the charts' exposures.
+void add_faces(const RawMesh& raw, const Shape& shape, const std::vector<int>& views,
+               const std::vector<std::vector<int>>& chart_faces, const std::vector<Chart>& charts,
+               const std::vector<int>& order, const SynthOptions& options, Rng& hard, TexturedMesh& mesh,
+               SynthTruth& truth) {
+  const size_t C = charts.size();
   std::vector<int> page_order = order;
   std::stable_sort(page_order.begin(), page_order.end(), [&](int a, int b) {
     return charts[static_cast<size_t>(a)].page < charts[static_cast<size_t>(b)].page;
   });
-  SynthTruth& truth = model.truth;
   truth.face_plane.clear();
   truth.face_class.clear();
   truth.face_view.clear();
@@ -324,6 +359,7 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
   truth.overlapping_charts.clear();
   std::vector<int> chart_no_of(C, -1);
   std::vector<double> chart_exposure;
+  std::unordered_map<int, int> local;
   int chart_no = 0;
   for (int id : page_order) {
     const Chart& ch = charts[static_cast<size_t>(id)];
@@ -373,22 +409,18 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
     if (charts[c].host >= 0)
       truth.overlapping_charts.push_back({chart_no_of[c], chart_no_of[static_cast<size_t>(charts[c].host)]});
   truth.chart_exposure = chart_exposure;
-  count_features(raw, shape, truth);
-  // 5. colours
-  model.pages.assign(static_cast<size_t>(num_pages), Image());
-  for (int k = 0; k < num_pages; ++k) {
-    Image& img = model.pages[static_cast<size_t>(k)];
-    img.width = mesh.pages[static_cast<size_t>(k)].width;
-    img.height = mesh.pages[static_cast<size_t>(k)].height;
-    img.channels = 3;
-    img.pixels.assign(static_cast<size_t>(img.width) * static_cast<size_t>(img.height) * 3, 0);
-  }
-  if (!options.render_pages) return;
-  Palette palette(shape, rng);
-  std::vector<std::vector<uint8_t>> filled(static_cast<size_t>(num_pages));
-  for (int k = 0; k < num_pages; ++k)
-    filled[static_cast<size_t>(k)].assign(static_cast<size_t>(model.pages[static_cast<size_t>(k)].width) *
-                                          static_cast<size_t>(model.pages[static_cast<size_t>(k)].height), 0);
+}
+
+/// Step 5a: paints every face's texels (centres inside it, with a small tolerance that closes
+/// cracks) with its plane's albedo at the point, times its camera's exposure and colour gain and
+/// its chart's exposure, plus a per-texel grain. Returns per page the mask of painted texels.
+std::vector<std::vector<uint8_t>> paint_faces(SynthModel& model, const Palette& palette) {
+  const TexturedMesh& mesh = model.mesh;
+  const SynthTruth& truth = model.truth;
+  const std::vector<Camera>& cams = truth.cameras;
+  std::vector<std::vector<uint8_t>> filled(model.pages.size());
+  for (size_t k = 0; k < model.pages.size(); ++k)
+    filled[k].assign(static_cast<size_t>(model.pages[k].width) * static_cast<size_t>(model.pages[k].height), 0);
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     const Face& fc = mesh.faces[f];
     Image& img = model.pages[static_cast<size_t>(fc.page)];
@@ -424,16 +456,21 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
                                       (static_cast<uint64_t>(row) << 24) ^ static_cast<uint64_t>(xx));
         const double grain = (static_cast<double>(hsh & 0xFF) / 255.0 - 0.5) * 10.0;
         uint8_t* px = img.at(xx, row);
-        const double expo = cam.exposure * chart_exposure[static_cast<size_t>(truth.face_chart[f])];
+        const double expo = cam.exposure * truth.chart_exposure[static_cast<size_t>(truth.face_chart[f])];
         for (int ch = 0; ch < 3; ++ch) px[ch] = to_byte(alb[ch] * expo * cam.colour_gain[ch] + grain);
         mask[static_cast<size_t>(row) * static_cast<size_t>(img.width) + static_cast<size_t>(xx)] = 1;
       }
   }
-  // dilate into the padding: each pass fills empty texels next to filled ones with their mean
-  for (int k = 0; k < num_pages; ++k) {
-    Image& img = model.pages[static_cast<size_t>(k)];
-    std::vector<uint8_t>& mask = filled[static_cast<size_t>(k)];
-    for (int pass = 0; pass < pad + 1; ++pass) {
+  return filled;
+}
+
+/// Step 5b: dilates the painted texels into the padding: each of `passes` passes fills the empty
+/// texels next to painted ones (8-neighbourhood) with their mean.
+void dilate_into_padding(std::vector<Image>& pages, std::vector<std::vector<uint8_t>>& filled, int passes) {
+  for (size_t k = 0; k < pages.size(); ++k) {
+    Image& img = pages[k];
+    std::vector<uint8_t>& mask = filled[k];
+    for (int pass = 0; pass < passes; ++pass) {
       std::vector<uint8_t> next = mask;
       for (int yy = 0; yy < img.height; ++yy)
         for (int xx = 0; xx < img.width; ++xx) {
@@ -456,6 +493,33 @@ void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>&
       mask.swap(next);
     }
   }
+}
+
+}  // namespace
+
+void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>& views, const SynthOptions& options,
+                 Rng& rng, SynthModel& model) {
+  const std::vector<std::vector<int>> chart_faces = join_charts(raw, views, model.truth);
+  Rng hard(options.seed, 0x4A5D);  // the hard features' own stream: default outputs unchanged
+  std::vector<Chart> charts = make_charts(raw, chart_faces, views, model.truth.cameras, options, hard);
+  const Packing pk = shelf_pack(charts, options, hard);
+  TexturedMesh& mesh = model.mesh;
+  mesh = TexturedMesh();
+  add_pages(mesh, model.name, pk, options.page_size);
+  add_faces(raw, shape, views, chart_faces, charts, pk.order, options, hard, mesh, model.truth);
+  count_features(raw, shape, model.truth);
+  model.pages.assign(static_cast<size_t>(pk.num_pages), Image());
+  for (int k = 0; k < pk.num_pages; ++k) {
+    Image& img = model.pages[static_cast<size_t>(k)];
+    img.width = mesh.pages[static_cast<size_t>(k)].width;
+    img.height = mesh.pages[static_cast<size_t>(k)].height;
+    img.channels = 3;
+    img.pixels.assign(static_cast<size_t>(img.width) * static_cast<size_t>(img.height) * 3, 0);
+  }
+  if (!options.render_pages) return;
+  const Palette palette(shape, rng);
+  std::vector<std::vector<uint8_t>> filled = paint_faces(model, palette);
+  dilate_into_padding(model.pages, filled, options.padding + 1);
 }
 
 }  // namespace texdefrag::synth::detail
