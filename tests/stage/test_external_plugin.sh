@@ -51,16 +51,24 @@ PY
 cat > "$work/cfg.json" <<'JSON'
 {"detector": {"type": "detectors.by_group"}, "merger": {"type": "mergers.none"}, "packer": {"type": "packers.shelf"}}
 JSON
-"$bin" run -q -c "$work/cfg.json" "$work/in/two.obj" -o "$work/out" --report > "$work/report.json"
-python3 - "$work/report.json" <<'PY'
+# The detector uses the exported detectors_common helpers: region statistics, and the label file and
+# region-coloured model every detector can write into the output folder.
+"$bin" run -q -c "$work/cfg.json" "$work/in/two.obj" -o "$work/out" --report \
+  --set detector.write_labels=groups.txt --set detector.write_colored=groups.obj > "$work/report.json"
+python3 - "$work/report.json" "$work/out/groups.txt" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
 node = r["stages"]["detectors.by_group"]
 assert node["groups"] == 2, node
 assert node["regions"] == 2, node
+assert node["faces_per_region"]["max"] == 2 and node["textured_faces"] == 4, node
 assert r["output_stats"]["faces"] == 4, r["output_stats"]
+labels = [l.strip() for l in open(sys.argv[2]) if l.strip() and not l.startswith("#")]
+assert labels == ["0", "0", "1", "1"], labels
 PY
 test -s "$work/out/two.obj" || { echo "FAIL: no output"; exit 1; }
+test -s "$work/out/groups.obj" && test -s "$work/out/groups.mtl" && test -s "$work/out/groups_palette.png" ||
+  { ls "$work/out"; echo "FAIL: no region-coloured model from the exported helper"; exit 1; }
 # The packer and the merger on the bundled example (installed with the package).
 example="$work/prefix/share/texdefrag/examples/building/building.obj"
 cat > "$work/cfg2.json" <<'JSON'

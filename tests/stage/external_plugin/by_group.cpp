@@ -1,9 +1,12 @@
 // detectors.by_group: an out-of-tree detector whose regions are the OBJ's `g`/`o` groups, so
 // charts of different objects never merge. Built outside the texdefrag tree, loaded through
 // TEXDEFRAG_PLUGIN_PATH.
+// Uses the exported detector helpers (texdefrag::detectors_common): region numbering, region
+// statistics and the write_labels / write_colored outputs every detector offers.
+#include <common/region_output.h>
 #include <texdefrag/stage/registry.h>
 
-#include <map>
+#include <vector>
 
 namespace {
 
@@ -17,24 +20,24 @@ class ByGroup final : public texdefrag::Detector {
     i.doc = "tests/stage/external_plugin/by_group.cpp";
     i.options = {texdefrag::opt_bool("ungrouped_region", true,
                                      "Faces before any g/o statement form one region of their own")};
+    for (texdefrag::OptionSpec& o : texdefrag::detectors::output_options()) i.options.push_back(std::move(o));
     i.create = [] { return std::make_unique<ByGroup>(); };
     return i;
   }
   void detect(texdefrag::StageContext& ctx) override {
     const auto& faces = ctx.mesh->faces;
-    std::map<int, int> region_of_group;
-    ctx.regions.face_region.assign(faces.size(), -1);
+    std::vector<int> label(faces.size(), -1);  // -1: untextured, in no region
     for (size_t f = 0; f < faces.size(); ++f) {
       if (faces[f].page == texdefrag::kNoPage) continue;
-      int g = faces[f].group;
-      if (g < 0 && !options().get_bool("ungrouped_region"))
+      if (faces[f].group < 0 && !options().get_bool("ungrouped_region"))
         throw texdefrag::StageError("detectors.by_group: face " + std::to_string(f) + " (line " +
                                     std::to_string(faces[f].source_line) + ") belongs to no group");
-      auto it = region_of_group.emplace(g, static_cast<int>(region_of_group.size())).first;
-      ctx.regions.face_region[f] = it->second;
+      label[f] = faces[f].group + 1;  // faces before any g/o statement: label 0
     }
-    ctx.regions.num_regions = static_cast<int>(region_of_group.size());
-    (*ctx.report)["groups"] = region_of_group.size();
+    ctx.regions = texdefrag::detectors::regions_from_labels(label);  // numbered by size, largest first
+    texdefrag::detectors::report_region_stats(ctx.regions, *ctx.report);
+    (*ctx.report)["groups"] = ctx.regions.num_regions;
+    texdefrag::detectors::write_region_outputs("detectors.by_group", options(), ctx);
   }
 };
 
