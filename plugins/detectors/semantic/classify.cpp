@@ -243,9 +243,41 @@ std::vector<int> initial_classes(const std::vector<Vec3>& normals, const Classif
   return cls;
 }
 
-/// Connected smooth candidates that are tall and large enough become buildings.
+/// Area fraction of every component lying in large planar patches. Patches are grown inside each
+/// component from seeds in face order: a face joins its neighbour's patch when its filtered normal is
+/// within plane_angle_deg of the patch seed's (the seed, not the neighbour, so a curved surface does
+/// not drift into one patch); patches of at least plane_min_area count.
+std::vector<double> planar_fractions(const TexturedMesh& mesh, const Topology& topo, const std::vector<int>& comp, int n,
+                                     const std::vector<Vec3>& normals, const ClassifyOptions& o) {
+  const double cos_plane = std::cos(o.plane_angle_deg * M_PI / 180.0);
+  std::vector<double> planar(static_cast<size_t>(n), 0), total(static_cast<size_t>(n), 0);
+  std::vector<uint8_t> done(comp.size(), 0);
+  std::vector<int> patch;
+  for (size_t s = 0; s < comp.size(); ++s) {
+    if (comp[s] < 0 || done[s]) continue;
+    done[s] = 1;
+    patch.assign(1, static_cast<int>(s));
+    double area = 0;
+    for (size_t i = 0; i < patch.size(); ++i) {
+      const size_t f = static_cast<size_t>(patch[i]);
+      area += face_area_3d(mesh, f);
+      for_each_neighbour(topo, f, [&](int g) {
+        const size_t gi = static_cast<size_t>(g);
+        if (!done[gi] && comp[gi] == comp[s] && normals[gi].dot(normals[s]) >= cos_plane) done[gi] = 1, patch.push_back(g);
+      });
+    }
+    total[static_cast<size_t>(comp[s])] += area;
+    if (area >= o.plane_min_area) planar[static_cast<size_t>(comp[s])] += area;
+  }
+  for (size_t k = 0; k < planar.size(); ++k) planar[k] = total[k] > 0 ? planar[k] / total[k] : 0;
+  return planar;
+}
+
+/// Connected smooth candidates that are tall and large enough become buildings when most of their
+/// surface lies in large planes; tall, large and not planar they are vegetation (tree crowns that the
+/// producer simplified into smooth blobs), else they stay `other`. Returns the buildings' count.
 int promote_buildings(const TexturedMesh& mesh, const Topology& topo, const std::vector<uint8_t>& candidate,
-                      const ClassifyOptions& o, const std::vector<double>& height, std::vector<int>& cls) {
+                      const std::vector<Vec3>& normals, const ClassifyOptions& o, Classification& c, std::vector<int>& cls) {
   std::vector<int> lab(candidate.size(), -1);
   for (size_t f = 0; f < candidate.size(); ++f)
     if (candidate[f]) lab[f] = 0;
@@ -254,15 +286,22 @@ int promote_buildings(const TexturedMesh& mesh, const Topology& topo, const std:
   std::vector<double> top(static_cast<size_t>(n), -kInf), area(static_cast<size_t>(n), 0);
   for (size_t f = 0; f < comp.size(); ++f) {
     if (comp[f] < 0) continue;
-    top[static_cast<size_t>(comp[f])] = std::max(top[static_cast<size_t>(comp[f])], height[f]);
+    top[static_cast<size_t>(comp[f])] = std::max(top[static_cast<size_t>(comp[f])], c.height[f]);
     area[static_cast<size_t>(comp[f])] += face_area_3d(mesh, f);
   }
+  const std::vector<double> planar = planar_fractions(mesh, topo, comp, n, normals, o);
   int buildings = 0;
-  std::vector<uint8_t> is_building(static_cast<size_t>(n), 0);
-  for (size_t k = 0; k < is_building.size(); ++k)
-    if (top[k] >= o.building_min_height && area[k] >= o.building_min_area) is_building[k] = 1, ++buildings;
+  std::vector<int> verdict(static_cast<size_t>(n), static_cast<int>(FaceClass::Other));
+  for (size_t k = 0; k < verdict.size(); ++k) {
+    if (top[k] < o.building_min_height || area[k] < o.building_min_area) continue;
+    if (planar[k] >= o.building_min_planar_fraction) {
+      verdict[k] = static_cast<int>(FaceClass::Building), ++buildings;
+    } else {
+      verdict[k] = static_cast<int>(FaceClass::Vegetation), ++c.nonplanar_components;
+    }
+  }
   for (size_t f = 0; f < comp.size(); ++f)
-    if (comp[f] >= 0 && is_building[static_cast<size_t>(comp[f])]) cls[f] = static_cast<int>(FaceClass::Building);
+    if (comp[f] >= 0) cls[f] = verdict[static_cast<size_t>(comp[f])];
   return buildings;
 }
 
@@ -323,7 +362,7 @@ Classification classify_faces(const TexturedMesh& mesh, const Topology& topo, co
   patch_features(mesh, topo, normals, o.patch_rings, c);
   std::vector<uint8_t> candidate;
   std::vector<int> cls = initial_classes(normals, c, o, candidate);
-  promote_buildings(mesh, topo, candidate, o, c.height, cls);
+  promote_buildings(mesh, topo, candidate, normals, o, c, cls);
   c.relabelled_islands = absorb_islands(topo, o.min_component_faces, cls);
   c.face_class.resize(nf);
   std::vector<int> building(nf, -1);

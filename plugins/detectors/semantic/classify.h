@@ -12,7 +12,9 @@
 //    on a plane, >= 1/2 beside a crease between two planes, low in a tree crown);
 // 3. rules: low and near-horizontal -> ground; rough above ground -> vegetation; smooth surfaces
 //    form building candidates, a connected candidate is a building when it is tall and large
-//    enough, else `other` (cars, walls, kerbs); small islands of a class take their neighbours'.
+//    enough and mostly made of large planes (walls, roofs), vegetation when tall and large but not
+//    planar (tree crowns simplified into smooth blobs), else `other` (cars, walls, kerbs); small
+//    islands of a class take their neighbours'.
 // Units: heights and areas are in model units and assume metres (ContextCapture and glTF are).
 #pragma once
 
@@ -41,6 +43,9 @@ struct ClassifyOptions {
   double vegetation_coherence = 0.45;  ///< and less than this area fraction within 20 deg of the face's normal
   double building_min_height = 2.5;    ///< a building reaches at least this height above ground, metres
   double building_min_area = 15.0;     ///< a building's smooth surface covers at least this area, m^2
+  double plane_angle_deg = 15.0;       ///< a planar patch holds faces within this angle of its seed's normal, degrees
+  double plane_min_area = 8.0;         ///< patches at least this large count as planes, m^2
+  double building_min_planar_fraction = 0.5;  ///< a building has at least this area fraction in such planes
   int min_component_faces = 30;        ///< smaller same-class islands take their neighbours' class
   int normal_filter_iterations = 3;    ///< bilateral normal filter passes before the features
 };
@@ -54,6 +59,7 @@ struct Classification {
   std::array<double, kNumClasses> area_per_class{};
   int building_components = 0;         ///< connected building parts
   int relabelled_islands = 0;          ///< islands that took their neighbours' class
+  int nonplanar_components = 0;        ///< tall, large smooth components read as vegetation (not planar)
 };
 
 /// Classifies every face. mesh/topo: the model and its welded topology (faces adjacent through any

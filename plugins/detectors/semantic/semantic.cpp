@@ -26,6 +26,9 @@ semantic::ClassifyOptions classify_options(const Options& o) {
   c.vegetation_coherence = o.get_double("vegetation_coherence");
   c.building_min_height = o.get_double("building_min_height");
   c.building_min_area = o.get_double("building_min_area");
+  c.plane_angle_deg = o.get_double("plane_angle_deg");
+  c.plane_min_area = o.get_double("plane_min_area");
+  c.building_min_planar_fraction = o.get_double("building_min_planar_fraction");
   c.min_component_faces = static_cast<int>(o.get_int("min_component_faces"));
   return c;
 }
@@ -57,6 +60,12 @@ class SemanticDetector final : public Detector {
             .range(0, 1000).unit("m"),
         opt_double("building_min_area", d.building_min_area, "A building's connected smooth surface covers at least this area")
             .range(0, 1e7).unit("m^2"),
+        opt_double("plane_angle_deg", d.plane_angle_deg, "A planar patch holds faces within this angle of its seed face's normal")
+            .range(0.1, 90).unit("deg"),
+        opt_double("plane_min_area", d.plane_min_area, "Planar patches at least this large count as planes").range(0, 1e7).unit("m^2"),
+        opt_double("building_min_planar_fraction", d.building_min_planar_fraction,
+                   "A building has at least this area fraction in such planes; tall, large and less planar is vegetation")
+            .range(0, 1),
         opt_int("min_component_faces", d.min_component_faces, "Same-class islands with fewer faces take their neighbours' class")
             .range(1, 100000),
     };
@@ -99,6 +108,7 @@ class SemanticDetector final : public Detector {
     rep["class_area"] = area;
     rep["building_components"] = c.building_components;
     rep["relabelled_islands"] = c.relabelled_islands;
+    rep["nonplanar_components"] = c.nonplanar_components;
     const Regions r = regions_from_labels(label);
     json region_class = json::array();
     std::vector<std::string> names(static_cast<size_t>(r.num_regions));
