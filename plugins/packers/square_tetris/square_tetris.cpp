@@ -1,4 +1,3 @@
-#include <cstdlib>
 // packers.square_tetris: "Square Tetris" packing of Liu et al. 2024, "Planar feature-preserving
 // texture defragmentation method for 3D urban building models", Remote Sensing, section 2.3.
 //
@@ -674,19 +673,6 @@ class SquareTetris : public Packer {
       return filled >= rect_min_fill * static_cast<double>(m.cells.size());
     };
     const size_t tail = static_cast<size_t>(std::stable_partition(order.begin(), order.end(), is_rect) - order.begin());
-    if (const char* ev = std::getenv("TD_ORDER")) {
-      const int mode = std::atoi(ev);
-      auto key = [&](int id) -> double {
-        const PackChart& c = in.charts[static_cast<size_t>(id)];
-        const double w = packing::padded_w(c, 0, s), h = packing::padded_h(c, 0, s);
-        if (mode == 1) return std::max(w, h);
-        if (mode == 2) return w + h;
-        if (mode == 3) return std::min(w, h);
-        if (mode == 4) return c.uv_area;
-        return w * h;
-      };
-      std::stable_sort(order.begin() + static_cast<long>(tail), order.end(), [&](int a, int b) { return key(a) > key(b); });
-    }
     const long long tail_max = options().get_int("tail_max_charts");
     const size_t tail_charts = order.size() - tail;
     const bool tail_skipped = tail_max > 0 && tail_charts > static_cast<size_t>(tail_max);
