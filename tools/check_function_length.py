@@ -3,7 +3,9 @@
 
 Usage: check_function_length.py [--max-lines N] [--allow FILE] [--root DIR] PATH...
 
-PATH is a source file or a folder (searched recursively for .cpp .cc .cxx .h .hpp .hh .inl).
+PATH is a source file or a folder (searched recursively for .cpp .cc .cxx .h .hpp .hh .inl;
+node_modules, hidden folders and build trees, i.e. folders holding a CMakeCache.txt, are skipped:
+they are not our code).
 A function's length is the number of physical lines from the line of its body's opening brace to
 the line of its closing brace, both included: `void f() {` + 148 lines + `}` is 150 lines. Free
 functions, member functions (in or out of the class), constructors (with initialiser lists),
@@ -31,6 +33,7 @@ import sys
 
 SOURCE_EXTENSIONS = (".cpp", ".cc", ".cxx", ".h", ".hpp", ".hh", ".inl")
 LITERAL_PREFIXES = {"L", "u", "U", "u8", "R", "LR", "uR", "UR", "u8R"}
+SKIPPED_FOLDERS = {"node_modules", "__pycache__"}
 CLASS_KEYS = {"class", "struct", "union", "enum"}
 # Words that may follow a function's parameter list before its body.
 TRAILING_QUALIFIERS = {"const", "volatile", "noexcept", "override", "final", "mutable",
@@ -434,7 +437,10 @@ def source_files(paths):
         if not os.path.isdir(p):
             raise ParseError(f"{p}: no such file or folder")
         for root, dirs, files in os.walk(p):
-            dirs.sort()
+            # Not our code: installed third-party packages (npm's node_modules), version control
+            # and build trees (a folder holding a CMakeCache.txt).
+            dirs[:] = sorted(d for d in dirs if d not in SKIPPED_FOLDERS and not d.startswith(".")
+                             and not os.path.exists(os.path.join(root, d, "CMakeCache.txt")))
             for f in sorted(files):
                 if f.endswith(SOURCE_EXTENSIONS):
                     yield os.path.join(root, f)

@@ -133,6 +133,15 @@ class Lengths(unittest.TestCase):
         self.assertEqual(code, 2, out)
         self.assertIn("needs a comment", out)
 
+    def test_third_party_and_build_folders_are_skipped(self):
+        for skipped in ("tools/node/node_modules/sharp/src", "build/_deps/x", ".hidden"):
+            self.write(skipped + "/long.cc", function_of(400, "not_ours"))
+        self.write("build/CMakeCache.txt", "")
+        self.write("tools/ours.cpp", function_of(10, "ours"))
+        code, out = run([self.dir], "--root", self.dir)
+        self.assertEqual(code, 0, out)
+        self.assertIn("1 functions, 0 over", out)
+
     def test_missing_path_is_an_error(self):
         code, out = run([os.path.join(self.dir, "nope")])
         self.assertEqual(code, 2, out)
