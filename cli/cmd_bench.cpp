@@ -15,21 +15,11 @@ namespace fs = std::filesystem;
 namespace texdefrag::cli {
 namespace {
 
-/// Runs eval/plots/plots.py (installed as share/texdefrag/plots/plots.py) on the results folder; returns a one-line status for the user.
+/// Runs eval/plots/plots.py on the results folder; returns a one-line status for the user.
 std::string run_plots(const std::string& results_dir) {
-  const std::string script = (fs::path(data_dir("plots")) / "plots.py").string();
-  if (!fs::is_regular_file(script)) return "plots: script " + script + " not found; no figures written";
-  const std::string python = python_executable();
-  const bench::ChildResult r =
-      bench::run_child({python, script, "--results", results_dir}, (fs::path(results_dir) / "plots").string());
-  if (!r.start_error.empty())
-    return "plots: cannot run Python (" + python + ": " + r.start_error +
-           "); set TEXDEFRAG_PYTHON at configure time. No figures written";
-  std::cout << r.out;
-  if (r.exit_code == 3)
-    return "plots: matplotlib is not available to " + python + "; summary.md written, no figures (" + r.describe() + ")";
-  if (!r.ok()) return "plots: failed (" + r.describe() + ")";
-  return "plots: figures and summary.md in " + results_dir;
+  const bench::PlotsResult p = bench::run_plots({"--results", results_dir}, (fs::path(results_dir) / "plots").string());
+  std::cout << p.out;
+  return p.figures ? "plots: figures and summary.md in " + results_dir : p.message;
 }
 
 }  // namespace

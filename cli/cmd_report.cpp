@@ -77,6 +77,10 @@ CLI::App* add_report_command(CLI::App& app, int& exit_code) {
         a->opt.bench_dir = a->bench;
       } else {
         models.push_back(report::model_from_files(a->input, a->outputs, a->samples));
+        // The single run's figures (plots.py on its records): written into the report folder.
+        a->opt.figures_note = report::write_run_figures(models.front(), a->out);
+        a->opt.figures_dir = (fs::path(a->out) / "figures").string();
+        if (!a->opt.figures_note.empty()) std::cerr << "texdefrag report: " << a->opt.figures_note << "\n";
       }
       a->opt.out_dir = a->out;
       const report::ReportSummary s = report::write_report(models, a->opt);

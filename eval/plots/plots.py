@@ -55,10 +55,13 @@ METRICS = [
     ("seam_colour_l2_in", 0, "seam colour discrepancy at MIP level 2, input", 1, ""),
     ("seam_colour_l2_out", -1, "seam colour discrepancy at MIP level 2, output", 1, ""),
     ("seam_colour_l4_out", -1, "seam colour discrepancy at MIP level 4, output", 1, ""),
-    ("rendered_psnr_l0", +1, "rendered PSNR, MIP level 0", 1, "dB"),
-    ("rendered_psnr_l2", +1, "rendered PSNR, MIP level 2", 1, "dB"),
-    ("rendered_psnr_l4", +1, "rendered PSNR, MIP level 4", 1, "dB"),
-    ("rendered_ssim_l2", +1, "rendered SSIM, MIP level 2", 1, ""),
+    ("input_rendered_psnr_l0", 0, "rendered PSNR of the input, distance step 0", 1, "dB"),
+    ("rendered_psnr_l0", +1, "rendered PSNR vs prefiltered input, distance step 0", 1, "dB"),
+    ("input_rendered_psnr_l2", 0, "rendered PSNR of the input, distance step 2", 1, "dB"),
+    ("rendered_psnr_l2", +1, "rendered PSNR, distance step 2", 1, "dB"),
+    ("input_rendered_psnr_l4", 0, "rendered PSNR of the input, distance step 4", 1, "dB"),
+    ("rendered_psnr_l4", +1, "rendered PSNR, distance step 4", 1, "dB"),
+    ("rendered_ssim_l2", +1, "rendered SSIM, distance step 2", 1, ""),
 ]
 # Rendered-view fidelity per MIP level (docs/eval.md "Appearance"): columns written by eval/bench.
 MIP_LEVELS = range(5)
@@ -228,6 +231,32 @@ def histogram_figure(plt, rows, configs, panels, path, title):
     return drew
 
 
+def config_bars_figure(plt, rows, configs, panels, path, title):
+    """One model: one panel per (metric, label, scale, unit), one bar per configuration with its
+    value written on it (a histogram or box plot over one model would show the same number)."""
+    fig, axes = plt.subplots(1, len(panels), figsize=(max(5.0, 1.2 * len(configs) + 2.5) * len(panels), 4.2), squeeze=False)
+    drew = False
+    for ax, (metric, label, scale, unit) in zip(axes[0], panels):
+        pts = [(c, v[0] * scale) for c in configs if (v := values(rows, c, metric))]
+        if not pts:
+            continue
+        bars = ax.bar(range(len(pts)), [p[1] for p in pts], color=[f"C{configs.index(p[0])}" for p in pts])
+        for b, (_, v) in zip(bars, pts):
+            ax.annotate(f"{v:.4g}{unit}", (b.get_x() + b.get_width() / 2, v), xytext=(0, 3), textcoords="offset points",
+                        ha="center", fontsize=8)
+        ax.set_xticks(range(len(pts)))
+        ax.set_xticklabels([p[0] for p in pts], rotation=30 if len(pts) > 4 else 0)
+        ax.set_ylabel(f"{label} ({unit})" if unit else label)
+        ax.grid(axis="y", alpha=0.3)
+        drew = True
+    fig.suptitle(title)
+    fig.tight_layout()
+    if drew:
+        fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return drew
+
+
 def per_model_bars(plt, rows, configs, metric, ax, scale=100, baseline_metric=None, labels=None):
     models = sorted({r["model"] for r in rows if r.get("status") == "ok"})
     width = 0.8 / (len(configs) + (1 if baseline_metric else 0))
@@ -266,16 +295,32 @@ def figures(rows, configs, outdir):
     def out(name):
         return os.path.join(outdir, name)
 
-    if histogram_figure(plt, rows, configs, [("chart_reduction", "relative reduction of the chart count")],
-                        out("fig16_chart_reduction.png"), "Figure 16: chart count reduction per model"):
+    # Figures 16-18 are distributions over models; for one model (a single run's report) they are
+    # drawn as one bar per configuration instead.
+    single = len({r["model"] for r in rows if r.get("status") == "ok"}) == 1
+    if single:
+        model = next(r["model"] for r in rows if r.get("status") == "ok")
+        for name, panels, title in (
+                ("fig16_chart_reduction.png", [("chart_reduction", "chart count reduction", 100, "%")],
+                 f"Figure 16 ({model}): chart count reduction"),
+                ("fig17_seam_reduction.png", [("seam_3d_reduction", "3D seam length reduction", 100, "%"),
+                                              ("uv_border_reduction", "UV border length reduction", 100, "%")],
+                 f"Figure 17 ({model}): seam length reduction"),
+                ("fig18_distortion.png", [("distortion_arap", "ARAP distortion E", 1, "")],
+                 f"Figure 18 ({model}): texture distortion")):
+            if config_bars_figure(plt, rows, configs, panels, out(name), title):
+                written.append(name)
+    if not single and histogram_figure(plt, rows, configs, [("chart_reduction", "relative reduction of the chart count")],
+                                       out("fig16_chart_reduction.png"), "Figure 16: chart count reduction per model"):
         written.append("fig16_chart_reduction.png")
-    if histogram_figure(plt, rows, configs, [("seam_3d_reduction", "relative reduction of the 3D seam length"),
-                                             ("uv_border_reduction", "relative reduction of the UV border length")],
-                        out("fig17_seam_reduction.png"), "Figure 17: seam length reduction per model"):
+    if not single and histogram_figure(plt, rows, configs,
+                                       [("seam_3d_reduction", "relative reduction of the 3D seam length"),
+                                        ("uv_border_reduction", "relative reduction of the UV border length")],
+                                       out("fig17_seam_reduction.png"), "Figure 17: seam length reduction per model"):
         written.append("fig17_seam_reduction.png")
 
     data = [values(rows, c, "distortion_arap") for c in configs]
-    if any(data):
+    if not single and any(data):
         fig, ax = plt.subplots(figsize=(max(5, 1.6 * len(configs)), 4.2))
         present = [(c, d) for c, d in zip(configs, data) if d]
         ax.boxplot([d for _, d in present], labels=[f"{c}\n(n={len(d)})" for c, d in present], showmeans=True)

@@ -146,6 +146,24 @@ def main():
                 fail(f"{name} is not a PNG")
         if os.path.getsize(path) < 5000:
             fail(f"{name} is suspiciously small")
+    # One model (a single run's report): Figures 16-18 become per-configuration bars, 19-21 stay.
+    single_dir = os.path.join(args.workdir, "single")
+    os.makedirs(single_dir)
+    with open(os.path.join(single_dir, "results.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        w.writerows([r for r in rows() if r["model"] == "m1" and not r["sweep_key"]])
+    p = subprocess.run([sys.executable, os.path.join(HERE, "plots.py"), "--results", single_dir],
+                       capture_output=True, text=True)
+    if p.returncode != 0:
+        fail(f"plots.py on one model: exit {p.returncode}: {p.stderr}")
+    expected = ["fig16_chart_reduction.png", "fig17_seam_reduction.png", "fig18_distortion.png",
+                "fig19_texture_size.png", "fig20_vertex_replication.png", "fig21_rendered_mip.png"]
+    got = sorted(os.listdir(os.path.join(single_dir, "figures")))
+    if got != expected:
+        fail(f"one model: figures {got}, expected {expected}")
+    if "wrote 6 figure(s)" not in p.stdout + p.stderr:
+        fail(f"one model: {p.stdout} {p.stderr}")
     print("ok")
     return 0
 

@@ -1,6 +1,7 @@
 // Child processes of a batch: posix_spawn with captured output, a timeout, and the child's own
 // peak memory from wait4's rusage.
 #include "texdefrag/eval/bench.h"
+#include "texdefrag/util/paths.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -13,6 +14,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -113,6 +115,30 @@ ChildResult run_child(const std::vector<std::string>& argv, const std::string& c
   r.out = read_all(out_path);
   r.err = read_all(err_path);
   return r;
+}
+
+PlotsResult run_plots(const std::vector<std::string>& args, const std::string& capture_prefix) {
+  PlotsResult p;
+  const std::string script = (std::filesystem::path(data_dir("plots")) / "plots.py").string();
+  if (!std::filesystem::is_regular_file(script)) {
+    p.message = "plots: script " + script + " not found; no figures written";
+    return p;
+  }
+  const std::string python = python_executable();
+  std::vector<std::string> argv = {python, script};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const ChildResult r = run_child(argv, capture_prefix);
+  p.out = r.out;
+  if (!r.start_error.empty())
+    p.message = "plots: cannot run Python (" + python + ": " + r.start_error +
+                "); set TEXDEFRAG_PYTHON at configure time. No figures written";
+  else if (r.exit_code == 3)
+    p.message = "plots: matplotlib is not available to " + python + "; summary.md written, no figures (" + r.describe() + ")";
+  else if (!r.ok())
+    p.message = "plots: failed (" + r.describe() + ")";
+  else
+    p.figures = true;
+  return p;
 }
 
 }  // namespace texdefrag::bench

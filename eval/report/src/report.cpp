@@ -49,11 +49,13 @@ const Row kRows[] = {
     {"seam colour discrepancy, MIP level 0 (RGB levels)", "seam_colour_out", "seam_colour_in", 'g'},
     {"seam colour discrepancy, MIP level 2", "seam_colour_l2_out", "seam_colour_l2_in", 'g'},
     {"seam colour discrepancy, MIP level 4", "seam_colour_l4_out", "seam_colour_l4_in", 'g'},
-    {"rendered PSNR, level 0", "rendered_psnr_l0", "input_rendered_psnr_l0", 'd'},
-    {"rendered PSNR, level 2", "rendered_psnr_l2", "input_rendered_psnr_l2", 'd'},
-    {"rendered PSNR, level 4", "rendered_psnr_l4", "input_rendered_psnr_l4", 'd'},
-    {"rendered SSIM, level 2", "rendered_ssim_l2", "input_rendered_ssim_l2", 'g'},
-    {"rendered SSIM, level 4", "rendered_ssim_l4", "input_rendered_ssim_l4", 'g'},
+    {"rendered PSNR vs prefiltered input, distance step 0 (render size S)", "rendered_psnr_l0", "input_rendered_psnr_l0", 'd'},
+    {"rendered PSNR, step 1 (S / 2)", "rendered_psnr_l1", "input_rendered_psnr_l1", 'd'},
+    {"rendered PSNR, step 2 (S / 4)", "rendered_psnr_l2", "input_rendered_psnr_l2", 'd'},
+    {"rendered PSNR, step 3 (S / 8)", "rendered_psnr_l3", "input_rendered_psnr_l3", 'd'},
+    {"rendered PSNR, step 4 (S / 16)", "rendered_psnr_l4", "input_rendered_psnr_l4", 'd'},
+    {"rendered SSIM, step 2", "rendered_ssim_l2", "input_rendered_ssim_l2", 'g'},
+    {"rendered SSIM, step 4", "rendered_ssim_l4", "input_rendered_ssim_l4", 'g'},
     {"time (s)", "time_s", "", 'g'},
     {"peak memory (MiB)", "peak_rss_mb", "", 'g'},
 };
@@ -163,6 +165,31 @@ LoadedView load_view(const std::string& obj) {
   const Topology topo = build_topology(v.mesh);
   v.chart = build_charts(v.mesh, topo).atlas.face_chart;
   return v;
+}
+
+/// The figures (plots.py's PNGs of figures_dir, or bench_dir/figures), copied into root/figures
+/// unless they are there already, and their HTML; the note when there is none.
+std::string figures_section(const ReportOptions& o, const fs::path& root) {
+  fs::path dir = o.figures_dir;
+  if (dir.empty() && !o.bench_dir.empty()) dir = fs::path(o.bench_dir) / "figures";
+  std::vector<std::string> figures;
+  if (!dir.empty() && fs::is_directory(dir))
+    for (const auto& e : fs::directory_iterator(dir))
+      if (e.path().extension() == ".png") figures.push_back(e.path().filename().string());
+  std::sort(figures.begin(), figures.end());
+  std::ostringstream s;
+  if (figures.empty()) {
+    if (!o.figures_note.empty()) s << "<h2>Figures</h2>\n<p class=\"note\">" << html(o.figures_note) << "</p>\n";
+    return s.str();
+  }
+  const bool same = fs::exists(root / "figures") && fs::equivalent(dir, root / "figures");
+  s << "<h2>Figures</h2>\n<div class=\"figures\">";
+  for (const std::string& f : figures) {
+    if (!same) fs::copy_file(dir / f, root / "figures" / f, fs::copy_options::overwrite_existing);
+    s << "<a href=\"figures/" << html(f) << "\"><img src=\"figures/" << html(f) << "\" alt=\"" << html(f) << "\"></a>";
+  }
+  s << "</div>\n";
+  return s.str();
 }
 
 }  // namespace
@@ -275,20 +302,7 @@ ReportSummary write_report(const std::vector<ReportModel>& models, const ReportO
       }
     head << "<h2>Summary: medians over " << models.size() << " models</h2>\n" << metrics_table(all_labels, med, in_med);
   }
-  // Figures of the bench (plots.py): copied and embedded.
-  std::vector<std::string> figures;
-  if (!o.bench_dir.empty() && fs::is_directory(fs::path(o.bench_dir) / "figures"))
-    for (const auto& e : fs::directory_iterator(fs::path(o.bench_dir) / "figures"))
-      if (e.path().extension() == ".png") figures.push_back(e.path().filename().string());
-  std::sort(figures.begin(), figures.end());
-  if (!figures.empty()) {
-    head << "<h2>Figures</h2>\n<div class=\"figures\">";
-    for (const std::string& f : figures) {
-      fs::copy_file(fs::path(o.bench_dir) / "figures" / f, root / "figures" / f, fs::copy_options::overwrite_existing);
-      head << "<a href=\"figures/" << html(f) << "\"><img src=\"figures/" << html(f) << "\" alt=\"" << html(f) << "\"></a>";
-    }
-    head << "</div>\n";
-  }
+  head << figures_section(o, root);
   std::ostringstream page;
   page << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << html(o.title) << "</title>\n"
        << "<link rel=\"stylesheet\" href=\"lib/report.css\">\n"

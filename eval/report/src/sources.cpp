@@ -58,7 +58,8 @@ std::vector<ReportModel> models_from_bench(const std::string& results_dir) {
   return models;
 }
 
-ReportModel model_from_files(const std::string& input_obj, const std::vector<std::string>& outputs, size_t samples) {
+ReportModel model_from_files(const std::string& input_obj, const std::vector<std::string>& outputs, size_t samples,
+                             const eval::RenderFidelityOptions& render) {
   if (!fs::is_regular_file(input_obj)) throw ReportError(input_obj + ": no such file");
   ReportModel m;
   m.id = fs::path(input_obj).stem().string();
@@ -75,11 +76,30 @@ ReportModel model_from_files(const std::string& input_obj, const std::vector<std
     o.obj = fs::absolute(o.obj).string();
     eval::EvalOptions opt;
     opt.fidelity.samples = samples;
-    const json record = {{"eval", eval::to_json(eval::compare_files(m.input_obj, o.obj, opt))}};
-    o.metrics = bench::derived_metrics(record);
+    opt.render = render;
+    o.record = {{"config", o.label}, {"base_config", o.label}, {"kind", "output"}, {"model", m.id},
+                {"model_path", m.input_obj}, {"status", "ok"}, {"output", o.obj},
+                {"eval", eval::to_json(eval::compare_files(m.input_obj, o.obj, opt))}};
+    o.metrics = bench::derived_metrics(o.record);
     m.outputs.push_back(std::move(o));
   }
   return m;
+}
+
+std::string write_run_figures(const ReportModel& model, const std::string& out_dir) {
+  std::vector<json> records;
+  for (const ReportOutput& o : model.outputs) {
+    if (!o.record.is_object()) throw ReportError("write_run_figures: output '" + o.label + "' has no evaluation record");
+    records.push_back(o.record);
+  }
+  fs::create_directories(fs::path(out_dir) / "figures");
+  const std::string csv = (fs::path(out_dir) / "results.csv").string();
+  bench::write_csv(records, csv);
+  const bench::PlotsResult p =
+      bench::run_plots({"--results", out_dir, "--csv", csv, "--figures", (fs::path(out_dir) / "figures").string(), "--summary",
+                        (fs::path(out_dir) / "summary.md").string()},
+                       (fs::path(out_dir) / "figures" / "plots").string());  // plots.stdout, .stderr
+  return p.figures ? "" : p.message;
 }
 
 }  // namespace texdefrag::report

@@ -45,8 +45,8 @@ report::ReportModel two_views(const std::string& dir) {
   report::ReportModel m;
   m.id = "model";
   m.input_obj = dir + "/in/model.obj";
-  m.outputs.push_back({"one", dir + "/out/model.obj", {{"chart_reduction", 0.5}, {"distortion_arap", 0.01}, {"charts_in", 12}, {"charts_out", 6}}, "", {}});
-  m.outputs.push_back({"two", dir + "/out/model.obj", {{"chart_reduction", 0.9}, {"distortion_arap", 0.02}, {"charts_out", 1}}, "", {}});
+  m.outputs.push_back({"one", dir + "/out/model.obj", {{"chart_reduction", 0.5}, {"distortion_arap", 0.01}, {"charts_in", 12}, {"charts_out", 6}}, "", {}, nullptr});
+  m.outputs.push_back({"two", dir + "/out/model.obj", {{"chart_reduction", 0.9}, {"distortion_arap", 0.02}, {"charts_out", 1}}, "", {}, nullptr});
   return m;
 }
 
@@ -122,14 +122,63 @@ TEST(Report, ErrorsNameTheProblem) {
   EXPECT_THROW(report::model_from_files(dir + "/in/model.obj", {"=" + dir + "/out/model.obj"}, 100), report::ReportError);
 }
 
-TEST(Report, ModelFromFilesEvaluatesEachOutput) {
+// A single run (texdefrag report --input): each output evaluated, and the report embeds the
+// figures that make sense for one model: 16-18 as one bar per output, 19-20 per model, 21 the
+// rendered fidelity against distance. (Small renders keep the evaluation quick.)
+TEST(Report, SingleRunEvaluatesOutputsAndEmbedsFigures) {
   const std::string dir = fx::temp_dir();
   two_views(dir);
-  const report::ReportModel m = report::model_from_files(dir + "/in/model.obj", {"merged=" + dir + "/out/model.obj"}, 500);
+  eval::RenderFidelityOptions render;
+  render.views = 2, render.size = 64, render.max_level = 2, render.supersample = 2;
+  report::ReportModel m = report::model_from_files(dir + "/in/model.obj", {"merged=" + dir + "/out/model.obj"}, 500, render);
   ASSERT_EQ(m.outputs.size(), 1u);
   EXPECT_EQ(m.outputs[0].label, "merged");
   EXPECT_EQ(m.outputs[0].metrics["charts_in"], 12);
   EXPECT_EQ(m.outputs[0].metrics["charts_out"], 1);
   EXPECT_TRUE(m.outputs[0].metrics["rendered_psnr_l0"].is_number());
   EXPECT_TRUE(m.outputs[0].metrics["clash_fraction_l2_out"].is_number());
+  EXPECT_TRUE(m.outputs[0].metrics["seam_colour_l2_in"].is_number());
+  const nlohmann::json& rec = m.outputs[0].record;
+  ASSERT_TRUE(rec.is_object());
+  EXPECT_EQ(rec["config"], "merged");
+  EXPECT_EQ(rec["model"], "model");
+  EXPECT_EQ(rec["eval"]["rendered"]["levels"].size(), 3u);
+  // A second output (the same files under another label) for the per-output figures.
+  report::ReportOutput again = m.outputs[0];
+  again.label = "again";
+  again.record["config"] = again.record["base_config"] = "again";
+  m.outputs.push_back(again);
+
+  report::ReportOptions o;
+  o.out_dir = dir + "/report";
+  o.three_js = fake_three(dir);
+  o.figures_note = report::write_run_figures(m, o.out_dir);
+  if (!o.figures_note.empty()) GTEST_SKIP() << o.figures_note;
+  o.figures_dir = o.out_dir + "/figures";
+  report::write_report({m}, o);
+  const std::string page = slurp(fs::path(o.out_dir) / "index.html");
+  for (const char* f : {"fig16_chart_reduction.png", "fig17_seam_reduction.png", "fig18_distortion.png", "fig19_texture_size.png",
+                        "fig20_vertex_replication.png", "fig21_rendered_mip.png"}) {
+    EXPECT_TRUE(fs::is_regular_file(fs::path(o.out_dir) / "figures" / f)) << f;
+    EXPECT_NE(page.find(std::string("<img src=\"figures/") + f + "\""), std::string::npos) << f;
+  }
+  // The table behind them: one row per output.
+  const std::string csv = slurp(fs::path(o.out_dir) / "results.csv");
+  EXPECT_NE(csv.find("merged,merged,output,,,model,ok"), std::string::npos) << csv.substr(0, 300);
+  EXPECT_NE(csv.find("again,again,output,,,model,ok"), std::string::npos);
+  // An output without an evaluation record cannot be plotted.
+  report::ReportModel bare = m;
+  bare.outputs[0].record = nullptr;
+  EXPECT_THROW(report::write_run_figures(bare, dir + "/bare"), report::ReportError);
+}
+
+// Without figures, the reason is on the page.
+TEST(Report, FiguresNoteWhenNoFigures) {
+  const std::string dir = fx::temp_dir();
+  report::ReportOptions o;
+  o.out_dir = dir + "/report";
+  o.three_js = fake_three(dir);
+  o.figures_note = "plots: matplotlib is not available";
+  report::write_report({two_views(dir)}, o);
+  EXPECT_NE(slurp(fs::path(o.out_dir) / "index.html").find("plots: matplotlib is not available"), std::string::npos);
 }

@@ -117,6 +117,19 @@ struct ChildResult {
 /// @param timeout_s  seconds before the child is killed (SIGKILL); 0 = no limit.
 ChildResult run_child(const std::vector<std::string>& argv, const std::string& capture_prefix, double timeout_s = 0);
 
+/// What run_plots wrote: `figures` when plots.py exited 0 (table and figures), else a message.
+struct PlotsResult {
+  bool figures = false;  ///< the figures were written
+  std::string message;   ///< one line for the user: where they are, or why not (no script, no Python, no matplotlib)
+  std::string out;       ///< plots.py's standard output
+};
+
+/// Runs eval/plots/plots.py (installed as share/texdefrag/plots/plots.py) under
+/// python_executable() with `args` (--results DIR [--csv ...] [--figures ...] [--summary ...]);
+/// its output is captured through `capture_prefix`. Never throws for a missing script, Python or
+/// matplotlib: the message says which.
+PlotsResult run_plots(const std::vector<std::string>& args, const std::string& capture_prefix);
+
 // ---------------------------------------------------------------------------------------------
 // Batch
 
