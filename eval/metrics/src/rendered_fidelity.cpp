@@ -140,11 +140,16 @@ struct Sampling {
   const std::vector<float>* lods = nullptr;
 };
 
-void sample(const std::vector<Image>& pyr, const Vec2& uv, const Sampling& s, int face, uint8_t* px) {
+/// repeat: the page's addressing (repeat unless `map_Kd -clamp on`), as the resampler reads it.
+void sample(const std::vector<Image>& pyr, const Vec2& uv, const Sampling& s, int face, bool repeat, uint8_t* px) {
   if (s.nearest) {
     const Image& tex = pyr[0];
-    const int x = std::clamp(static_cast<int>(std::floor(uv.x() * tex.width)), 0, tex.width - 1);
-    const int y = std::clamp(tex.height - 1 - static_cast<int>(std::floor(uv.y() * tex.height)), 0, tex.height - 1);
+    const auto index = [repeat](double v, int n) {
+      const double i = std::floor(v);
+      return repeat ? static_cast<int>(i - n * std::floor(i / n)) : static_cast<int>(std::clamp(i, 0.0, n - 1.0));
+    };
+    const int x = index(uv.x() * tex.width, tex.width);
+    const int y = tex.height - 1 - index(uv.y() * tex.height, tex.height);
     for (int c = 0; c < 3; ++c) px[c] = tex.at(x, y)[tex.channels >= 3 ? c : 0];
     return;
   }
@@ -152,8 +157,8 @@ void sample(const std::vector<Image>& pyr, const Vec2& uv, const Sampling& s, in
   const size_t lo = static_cast<size_t>(std::floor(lod)), hi = std::min(lo + 1, pyr.size() - 1);
   const double t = lod - static_cast<double>(lo);
   double a[3], b[3] = {0, 0, 0};
-  bilinear_rgb(pyr[lo], uv.x() * pyr[lo].width, uv.y() * pyr[lo].height, a);
-  if (t > 0) bilinear_rgb(pyr[hi], uv.x() * pyr[hi].width, uv.y() * pyr[hi].height, b);
+  bilinear_rgb(pyr[lo], uv.x() * pyr[lo].width, uv.y() * pyr[lo].height, a, repeat);
+  if (t > 0) bilinear_rgb(pyr[hi], uv.x() * pyr[hi].width, uv.y() * pyr[hi].height, b, repeat);
   for (int c = 0; c < 3; ++c) px[c] = static_cast<uint8_t>(std::lround(std::clamp((1 - t) * a[c] + t * b[c], 0.0, 255.0)));
 }
 
@@ -177,7 +182,7 @@ Image shade(const TexturedMesh& mesh, const std::vector<std::vector<Image>>& pyr
     }
     Vec2 uv(0, 0);
     for (int k = 0; k < 3; ++k) uv += static_cast<double>(g.bary[i][static_cast<size_t>(k)]) * mesh.texcoords[static_cast<size_t>(fc.vt[static_cast<size_t>(k)])];
-    sample(pyramids[static_cast<size_t>(fc.page)], uv, s, f, px);
+    sample(pyramids[static_cast<size_t>(fc.page)], uv, s, f, !mesh.pages[static_cast<size_t>(fc.page)].clamp, px);
   }
   return im;
 }

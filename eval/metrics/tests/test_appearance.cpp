@@ -282,6 +282,29 @@ TEST(RenderedFidelity, ChangedTextureAndLostFacesCost) {
   EXPECT_LT(h.levels[0].output_psnr_db, 20.0);
 }
 
+// Issue 11, case 3 seen by eval: a page is read with the MTL's addressing (repeat unless
+// `-clamp on`), as the resampler reads it. The same mesh with every u moved by 37 periods looks
+// the same under repeat; read clamped (as the rendered views once did) it was the page's edge
+// column smeared over the model.
+TEST(RenderedFidelity, PagesAreReadWithTheirAddressing) {
+  const TexturedMesh m = fx::grid_mesh(4, 3, 64, "unused.png");
+  TexturedMesh shifted = m;
+  for (Vec2& t : shifted.texcoords) t.x() += 37;
+  const std::vector<Image> pages = {noise(64, 64, 5)};
+  RenderFidelityOptions o;
+  o.views = 3, o.size = 64, o.max_level = 2;
+  const RenderFidelity base = rendered_fidelity(m, pages, m, pages, o);
+  const RenderFidelity r = rendered_fidelity(m, pages, shifted, pages, o);
+  ASSERT_EQ(r.levels.size(), base.levels.size());
+  for (size_t l = 0; l < r.levels.size(); ++l) {
+    EXPECT_GT(r.levels[l].pair_psnr_db, 50.0) << "level " << l;
+    EXPECT_NEAR(r.levels[l].output_psnr_db, base.levels[l].output_psnr_db, 0.05) << "level " << l;
+  }
+  TexturedMesh clamped = shifted;
+  clamped.pages[0].clamp = true;
+  EXPECT_LT(rendered_fidelity(m, pages, clamped, pages, o).levels[0].pair_psnr_db, 20.0);
+}
+
 TEST(RenderedFidelity, OptionsOutsideTheirRangesThrow) {
   TexturedMesh m = fx::grid_mesh(2, 2, 16, "unused.png");
   const std::vector<Image> pages = {solid(16, 16, 1, 2, 3)};
