@@ -109,8 +109,18 @@ async function main() {
       await page.evaluate(function () { window.TD.setMode('chart'); window.TD.render(); });
       const charts = await page.evaluate(viewportStats);
       await canvas.screenshot({ path: path.join(dir, 'thumbs', id + '_charts.png') });
+      // Regions (when a configuration has a detector): every face of every view coloured by the
+      // region of its input face, so outputs match the input's colouring more than their charts do.
+      const hasRegions = await page.evaluate(function () {
+        return window.TD.state.model.views.some(function (v) { return v.regions; });
+      });
+      let regions = null;
+      if (hasRegions) {
+        await page.evaluate(function () { window.TD.setMode('region'); window.TD.render(); });
+        regions = await page.evaluate(viewportStats);
+      }
       await page.evaluate(function () { window.TD.setMode('texture'); });
-      const rec = { id: id, seconds: (Date.now() - t0) / 1000, textured: textured, charts: charts };
+      const rec = { id: id, seconds: (Date.now() - t0) / 1000, textured: textured, charts: charts, regions: regions };
       results.models.push(rec);
       textured.forEach(function (v, i) {
         if (v.too_large) return;
@@ -123,10 +133,19 @@ async function main() {
             !(charts[i].diff_to_input > v.diff_to_input))
           problems.push(id + ' ' + v.label + ': chart view differs from the input by ' + charts[i].diff_to_input.toFixed(2) +
             ', texture by ' + v.diff_to_input.toFixed(2) + ' (charts should differ more)');
+        if (regions) {
+          if (!(regions[i].variance > MIN_VARIANCE))
+            problems.push(id + ' ' + v.label + ' (regions): blank viewport (variance ' + regions[i].variance.toFixed(1) + ')');
+          if (i > 0 && !textured[0].too_large && v.charts !== textured[0].charts &&
+              !(regions[i].diff_to_input < charts[i].diff_to_input))
+            problems.push(id + ' ' + v.label + ': region view differs from the input by ' + regions[i].diff_to_input.toFixed(2) +
+              ', chart view by ' + charts[i].diff_to_input.toFixed(2) + ' (regions come from the input: should differ less)');
+        }
       });
       console.log('check_report: ' + id + ': ' + textured.map(function (v, i) {
         return v.label + ' var ' + v.variance.toFixed(0) + '/' + charts[i].variance.toFixed(0) +
-          (i ? ' diff tex ' + v.diff_to_input.toFixed(1) + ' charts ' + charts[i].diff_to_input.toFixed(1) : '');
+          (i ? ' diff tex ' + v.diff_to_input.toFixed(1) + ' charts ' + charts[i].diff_to_input.toFixed(1) : '') +
+          (regions ? ' regions var ' + regions[i].variance.toFixed(0) + (i ? ' diff ' + regions[i].diff_to_input.toFixed(1) : '') : '');
       }).join('; ') + ' (' + rec.seconds.toFixed(1) + ' s)');
     }
     const status = await page.evaluate(function () { return window.TD.state.errors; });

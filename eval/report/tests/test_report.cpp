@@ -182,3 +182,24 @@ TEST(Report, FiguresNoteWhenNoFigures) {
   report::write_report({two_views(dir)}, o);
   EXPECT_NE(slurp(fs::path(o.out_dir) / "index.html").find("plots: matplotlib is not available"), std::string::npos);
 }
+
+// A bench report embeds every figure of the results folder (Figures 16-21 and sweep plots),
+// copied into the report folder.
+TEST(Report, BenchFiguresAndSweepPlotsCopiedAndEmbedded) {
+  const std::string dir = fx::temp_dir();
+  fs::create_directories(dir + "/bench/figures");
+  for (const char* f : {"fig16_chart_reduction.png", "fig21_rendered_mip.png", "sweep_packer.gutter.png"})
+    fx::write_test_image(dir + "/bench/figures/" + f, 8, 8);
+  std::ofstream(dir + "/bench/figures/notes.txt") << "not a figure\n";
+  report::ReportOptions o;
+  o.out_dir = dir + "/report";
+  o.three_js = fake_three(dir);
+  o.bench_dir = dir + "/bench";
+  report::write_report({two_views(dir)}, o);
+  const std::string page = slurp(fs::path(o.out_dir) / "index.html");
+  for (const char* f : {"fig16_chart_reduction.png", "fig21_rendered_mip.png", "sweep_packer.gutter.png"}) {
+    EXPECT_TRUE(fs::is_regular_file(fs::path(o.out_dir) / "figures" / f)) << f;
+    EXPECT_NE(page.find(std::string("<img src=\"figures/") + f + "\""), std::string::npos) << f;
+  }
+  EXPECT_EQ(page.find("notes.txt"), std::string::npos);
+}
