@@ -463,14 +463,19 @@ const char* Engine::check_triangles(const Move& mv) {
       hi = hi.cwiseMax(q);
     }
   };
-  for (int f : C(mv.small).faces)
-    if (rest_w_[static_cast<size_t>(f)] > 0) {
+  // The smaller chart's unchanged faces first: they moved rigidly together, so when the smaller chart
+  // has no overlapping pair (self_overlap false: none in its input charts, and every accepted merge
+  // tested each pair with a moved triangle) no pair of them is tested again.
+  const ChartInfo& Sm = C(mv.small);
+  for (int f : Sm.faces)
+    if (rest_w_[static_cast<size_t>(f)] > 0 && fchanged_[static_cast<size_t>(f)] != epoch_) {
       mt.push_back(tri2(f));
       grow(mt.back());
     }
-  // The bigger chart's changed faces (every face with fchanged_ == epoch_ is in `changed`).
+  const size_t rigid = Sm.self_overlap ? 0 : mt.size();
+  // The changed faces of both charts (every face with fchanged_ == epoch_ is in `changed`).
   for (int f : mv.changed)
-    if (rest_w_[static_cast<size_t>(f)] > 0 && fowner_[static_cast<size_t>(f)] == mv.big) {
+    if (rest_w_[static_cast<size_t>(f)] > 0) {
       mt.push_back(tri2(f));
       grow(mt.back());
     }
@@ -514,7 +519,7 @@ const char* Engine::check_triangles(const Move& mv) {
     };
     Bg.tris.query(qr, visit);
   }
-  return any_triangle_overlap(mt, rest) ? "overlap" : nullptr;
+  return any_triangle_overlap(mt, rest, rigid) ? "overlap" : nullptr;
 }
 
 void Engine::commit(Move& mv) {

@@ -169,7 +169,7 @@ bool triangles_overlap(const Tri2& a, const Tri2& b) {
   return false;
 }
 
-bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2>& all) {
+bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2>& all, size_t rigid) {
   if (moved.empty()) return false;
   Vector2d lo = moved[0].p[0], hi = lo;
   double len = 0;
@@ -214,6 +214,7 @@ bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2
         for (int i : grid[static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x)]) {
           if (i == self || seen[static_cast<size_t>(i)] == stamp) continue;
           seen[static_cast<size_t>(i)] = stamp;
+          if (self >= 0 && static_cast<size_t>(self) < rigid && static_cast<size_t>(i) < rigid) continue;
           const Tri2& m = moved[static_cast<size_t>(i)];
           if (m.w == t.w) continue;
           if (triangles_overlap(t, m)) return true;

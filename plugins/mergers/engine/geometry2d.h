@@ -68,6 +68,8 @@ bool triangles_overlap(const Tri2& a, const Tri2& b);
 /// grid over the moved triangles' bounding box.
 /// @param moved  triangles whose positions changed
 /// @param all    the other triangles of the same chart
-bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2>& all);
+/// @param rigid  moved[0, rigid) moved together rigidly and are known not to overlap each other (the
+///               caller's invariant): pairs within that prefix are not tested (0: test every pair)
+bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2>& all, size_t rigid = 0);
 
 }  // namespace texdefrag::merge
