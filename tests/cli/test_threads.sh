@@ -3,6 +3,8 @@
 # --threads 4 (issue 16), on a small synthetic building through configs/best.json, once with small
 # pages (many pages: resampled and encoded in parallel) and once with the default pages (few big
 # pages: the least-squares fit runs its windows in parallel); the OBJ is written in blocks either way.
+# The merger's first pass runs its regions side by side in both; a third variant lowers the global
+# distortion bound so that the first pass overspends it and runs again with per-region budget shares.
 # The run reports record the thread count. Usage: test_threads.sh TEXDEFRAG_EXE SRC_DIR
 set -euo pipefail
 exe=$1; src=$2
@@ -10,9 +12,10 @@ work=$(mktemp -d); trap 'rm -rf "$work"' EXIT
 "$exe" synth --archetype factory --faces 12000 --seed 3 -o "$work/in" >/dev/null
 model=$(ls "$work"/in/*.obj)
 status=0
-for variant in small default; do
+for variant in small default shares; do
   sets=()
   [ "$variant" = small ] && sets=(--set packer.max_page_size=512)
+  [ "$variant" = shares ] && sets=(--set merger.global_bound=0.004)
   for t in 1 4; do
     "$exe" run -q -c "$src/configs/best.json" "$model" -o "$work/$variant$t" --threads "$t" "${sets[@]}"
   done
@@ -27,6 +30,11 @@ for variant in small default; do
   done
   grep -q '"threads": 1,' "$a"/*.report.json || { echo "FAIL $variant: report of --threads 1 does not say threads 1"; status=1; }
   grep -q '"threads": 4,' "$b"/*.report.json || { echo "FAIL $variant: report of --threads 4 does not say threads 4"; status=1; }
+  grep -qE '"first_pass_lanes": ([2-9]|[1-9][0-9]+)([^0-9]|$)' "$b"/*.report.json ||
+    { echo "FAIL $variant: the merger's first pass did not run several regions"; status=1; }
+  shares=false; [ "$variant" = shares ] && shares=true
+  grep -q "\"first_pass_budget_shares\": $shares" "$b"/*.report.json ||
+    { echo "FAIL $variant: first_pass_budget_shares is not $shares"; status=1; }
   [ $status -eq 0 ] && echo "ok $variant: $(ls "$a" | wc -l) files identical for 1 and 4 threads ($pages pages)"
 done
 exit $status

@@ -37,6 +37,7 @@ class CeresArapSolver final : public LocalSolver {
   /// Runs up to s.iterations LM steps on the free positions of p (pinned ones never move).
   /// ok = false when inverted triangles remain or Ceres reports an unusable solution.
   SolveResult solve(LocalProblem& p) override;
+  bool reentrant() const override { return true; }  ///< no state between calls
 
  private:
   CeresArapSettings s_;

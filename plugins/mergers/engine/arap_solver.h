@@ -20,6 +20,7 @@ class ArapSolver final : public LocalSolver {
   explicit ArapSolver(ArapSettings s = {}) : s_(s) {}
   /// Runs up to s.iterations local/global steps. ok = false when inverted triangles remain.
   SolveResult solve(LocalProblem& p) override;
+  bool reentrant() const override { return true; }  ///< no state between calls
 
  private:
   ArapSettings s_;

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <queue>
 #include <string>
@@ -102,8 +103,48 @@ struct Entry {
   bool operator<(const Entry& o) const { return score < o.score; }
 };
 
+/// What the queue remembers of one chart pair.
+struct PairState {
+  int attempts = 0;
+  double penalty = 1;    ///< the M-method's penalty, doubled on each rejection
+  int va = -1, vb = -1;  ///< versions of the newest queue entry of this pair
+};
+
+/// The state of one merge queue and of the moves it runs: the whole atlas's (the engine's main lane),
+/// or one region's in the first pass (docs/mergers.md, "Parallel first pass"). A lane touches only the
+/// charts, faces and wedges of its own region, so region lanes run on threads side by side.
+struct Lane {
+  int region = -1;  ///< the region whose pairs this lane merges (-1: the main lane)
+  std::priority_queue<Entry> queue;
+  std::unordered_map<long long, PairState> pairs;
+  PairState& pair_state(int a, int b) {
+    return pairs[static_cast<long long>(std::min(a, b)) << 32 | static_cast<long long>(std::max(a, b))];
+  }
+  MergeReport rep;        ///< this lane's counters (attempts, acceptances, rejections, seconds)
+  double free_total = 0;  ///< sum of free-region sizes (for mean_free_vertices)
+  size_t free_count = 0;
+  /// Area-weighted ARAP error sum of the faces this lane answers for (the main lane: every face).
+  double err_sum = 0;
+  /// The global check (err_sum / weight of every face > global_bound rejects a move); else err_max.
+  bool global_check = true;
+  /// Without the global check, a move that would raise err_sum above this is rejected (a region's
+  /// share of the budget, or infinity).
+  double err_max = std::numeric_limits<double>::infinity();
+  long long max_merges = 0;  ///< accepted merges after which this lane stops
+  /// A first-pass lane left the adjacency of a chart outside its region unchanged (see commit_chart).
+  bool stale_adjacency = false;
+  // ---- per-move stamps and the rollback log
+  int epoch = 0;       ///< stamp of the current move (per-element stamp arrays compare against it)
+  int seen_stamp = 0;  ///< stamp of the current grid query
+  std::vector<std::pair<int, Vec2>> saved_uv;
+  std::vector<std::pair<int, std::array<int, 3>>> saved_fw;
+  int saved_small = -1;
+  bool saved_mirrored = false;  ///< the move reflected the smaller chart (its faces' handedness flipped)
+};
+
 /// One merge attempt: what each step of try_merge hands to the next.
 struct Move {
+  Lane* lane = nullptr;                    ///< the lane running it (its stamps and rollback log)
   int big = -1, small = -1;                ///< the chart kept and the chart absorbed (smaller UV area)
   std::vector<std::pair<int, int>> pairs;  ///< (bigger chart's wedge, smaller chart's wedge) at seam vertices
   std::vector<int> seam_edges;             ///< the seam's topology edges
@@ -127,16 +168,25 @@ class Engine {
       : mesh_(mesh), topo_(topo), at_(at), region_(face_region), opt_(opt), solver_(solver) {}
 
   /// The whole run: setup, the region-constrained queue, the optional second pass, compaction.
+  /// Returns early, with the atlas restored, when overspent() (see first_pass).
   MergeReport run(const Progress& progress);
+  /// The first pass's lanes check their regions' shares of the global distortion budget instead of
+  /// checking nothing and verifying the global bound after the pass.
+  void use_budget_shares() { budget_shares_ = true; }
+  /// The first pass without shares ended above the global bound: the atlas was restored, run again
+  /// with use_budget_shares().
+  bool overspent() const { return overspent_; }
 
   // ---- the steps, public for the engine's tests (run() calls setup() first)
   /// Builds rest shapes, charts, seams and grids from the atlas (once, before any move).
   void setup();
   /// One merge of charts a and b: begin_move, align, weld, free_region, solve, check, then commit or
   /// rollback. Returns false with `reason` set (a rejection name of docs/mergers.md) when rejected.
-  bool try_merge(int a, int b, std::string& reason);
+  bool try_merge(int a, int b, std::string& reason) { return try_merge(a, b, reason, main_); }
+  bool try_merge(int a, int b, std::string& reason, Lane& L);
   /// Starts a move: the bigger chart (by input UV area) keeps its id; the seam's wedge pairs.
-  Move begin_move(int a, int b);
+  Move begin_move(int a, int b) { return begin_move(a, b, main_); }
+  Move begin_move(int a, int b, Lane& L);
   /// Step 1: least-squares rigid motion of the smaller chart onto the bigger over the seam's wedge
   /// pairs; an improper one (with a reflection) when the smaller chart is mirrored relative to the
   /// bigger (seam_mirrored), and then its faces' rest shapes are mirrored too (face_mirrored).
@@ -156,7 +206,8 @@ class Engine {
   /// Step 6: makes an accepted move permanent (distortion sums, grids, boundary, chart data, adjacency).
   void commit(Move& mv);
   /// Restores the atlas exactly as it was before the move (positions, corners, charts, handedness).
-  void rollback();
+  void rollback() { rollback(main_); }
+  void rollback(Lane& L);
 
   /// Whether chart `small` is mirrored relative to chart `big`: along most of their seam edges the
   /// two faces would lie on the same side of the welded edge after any proper rigid motion (their UV
@@ -166,7 +217,7 @@ class Engine {
   /// True when face f's UV triangle is laid out mirrored relative to its input UV triangle.
   bool face_mirrored(int f) const { return fmirror_[static_cast<size_t>(f)] != 0; }
   /// Global area-weighted ARAP distortion of the current atlas (maintained incrementally).
-  double global_distortion() const { return weight_sum_ > 0 ? err_sum_ / weight_sum_ : 0; }
+  double global_distortion() const { return weight_sum_ > 0 ? main_.err_sum / weight_sum_ : 0; }
 
  private:
   // ---- static data
@@ -189,7 +240,12 @@ class Engine {
     return t;
   }
   int wedge(int f, int k) const { return at_.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)]; }
-  int chart(int f) const { return at_.face_chart[static_cast<size_t>(f)]; }
+  // note: relaxed atomic access: first-pass lanes on other threads change the charts of their own
+  // faces while this lane may read them (a face around a shared vertex or across a region's border);
+  // the value read never matters then (it is a chart of another region either way), but a plain
+  // read would be a data race.
+  int chart(int f) const { return __atomic_load_n(&at_.face_chart[static_cast<size_t>(f)], __ATOMIC_RELAXED); }
+  void set_chart(int f, int c) { __atomic_store_n(&at_.face_chart[static_cast<size_t>(f)], c, __ATOMIC_RELAXED); }
   ChartInfo& C(int c) { return charts_[static_cast<size_t>(c)]; }
   Mat2 jacobian(int f) const;
   double weighted_err(int f) const;
@@ -219,8 +275,8 @@ class Engine {
 
   // ---- queue
   void refresh_planarity(int c);
-  void push_pair(int a, int b);
-  double score(int a, int b, int& refusal);
+  void push_pair(Lane& L, int a, int b);
+  double score(Lane& L, int a, int b, int& refusal);
   /// The M-method's exception to its short-seam refusal: true when a sequence of at most max_steps
   /// merges involving a and b can close a UV island, i.e. for some neighbour c of a or b, the charts
   /// reachable from a without passing through c are found within max_steps pushes of a depth-first
@@ -229,7 +285,15 @@ class Engine {
   bool island_lookahead(int a, int b, int max_steps) const;
   bool candidate(int a, int b) const;
   void pair_points(int big, int small, std::vector<std::pair<int, int>>& pairs);
-  void drain(const Progress& progress, double base, double span);
+  void drain(Lane& L, const Progress& progress, double base, double span);
+  /// The region-constrained first pass: one lane per region, run on the thread pool when the solver
+  /// allows it, combined in region order (the result does not depend on the thread count).
+  void first_pass(const Progress& progress, double span);
+  std::vector<Lane> make_region_lanes();
+  void run_lanes(std::vector<Lane>& lanes, const Progress& progress, double span);
+  void join_lanes(std::vector<Lane>& lanes);
+  /// Rebuilds every chart's seam adjacency from the seam edges (after lanes left some stale).
+  void rebuild_adjacency();
   void start_second_pass(double local_bound);
 
   const TexturedMesh& mesh_;
@@ -238,33 +302,23 @@ class Engine {
   const std::vector<int>& region_;
   MergeOptions opt_;   ///< priority and local_bound switch to the second pass's values when it starts
   bool across_ = false;  ///< second pass: regions are ignored
+  bool budget_shares_ = false;  ///< first-pass lanes check their share of the budget (use_budget_shares)
+  bool overspent_ = false;      ///< see overspent()
   LocalSolver& solver_;
-  MergeReport rep_;
+  MergeReport rep_;  ///< the run's report (lanes' counters are added to it)
+  Lane main_;        ///< the main lane (the second pass; the engine's tests)
 
   std::vector<int> vf_off_, vf_;       ///< welded vertex -> textured faces (CSR)
   std::vector<Mat2> rest_inv_;         ///< inverse rest edge matrix (input UV triangle, texels; mirrored y -> -y when fmirror_)
   std::vector<char> fmirror_;          ///< face laid out mirrored relative to its input UV triangle
   std::vector<double> rest_w_;         ///< input UV area (0: no energy)
   std::vector<double> err_w_;          ///< weight * ARAP error, per face, current atlas
-  double err_sum_ = 0, weight_sum_ = 0;
+  double weight_sum_ = 0;
   std::vector<Vec3> region_normal_;
   std::vector<ChartInfo> charts_;
-  std::priority_queue<Entry> queue_;
-  struct PairState {
-    int attempts = 0;
-    double penalty = 1;        ///< the M-method's penalty, doubled on each rejection
-    int va = -1, vb = -1;      ///< versions of the newest queue entry of this pair
-  };
-  std::unordered_map<long long, PairState> pairs_;
-  PairState& pair_state(int a, int b) {
-    return pairs_[static_cast<long long>(std::min(a, b)) << 32 | static_cast<long long>(std::max(a, b))];
-  }
   std::vector<double> refreshed_area_;  ///< uv_area of a chart when all its pairs were last re-pushed
-  double free_total_ = 0;
-  size_t free_count_ = 0;
 
-  // ---- per-move scratch with epoch stamps
-  int epoch_ = 0;
+  // ---- per-move scratch with epoch stamps (Lane::epoch; each element is only stamped by its region's lane)
   std::vector<int> wstamp_, wmoved_, wrep_, wvisit_, wdone_, wfan_, fstamp_, fchanged_;
   std::vector<double> wdist_;
   // ---- per-chart triangle grids (cell size tri_cell_, shared by all charts)
@@ -272,7 +326,6 @@ class Engine {
   std::vector<int> fowner_;                 ///< chart whose grid holds face f (-1: none)
   std::vector<std::array<int, 4>> fcells_;  ///< cell range x0, y0, x1, y1 it was inserted with
   std::vector<int> fseen_;                  ///< query stamps
-  int seen_stamp_ = 0;
   void tri_box(int f, Vec2& lo, Vec2& hi) const {
     lo = hi = at_.wedge_uv[static_cast<size_t>(wedge(f, 0))];
     for (int k = 1; k < 3; ++k) {
@@ -296,21 +349,17 @@ class Engine {
   std::vector<char> ebnd_;                  ///< edge e is a live boundary edge of chart(f)
   std::vector<int> eowner_;                 ///< chart whose segment grid holds edge e (-1: none)
   std::vector<std::array<int, 4>> ecells_;  ///< cell range it was inserted with
-  std::vector<int> edead_, emoved_, eseen_; ///< per-move stamps (epoch_, seen_stamp_)
+  std::vector<int> edead_, emoved_, eseen_; ///< per-move stamps (Lane::epoch, Lane::seen_stamp)
   void seg_insert(int c, int e);
   void seg_remove(int e);
   void compact_boundary(ChartInfo& ch);
-  // ---- rollback log of the current move
-  std::vector<std::pair<int, Vec2>> saved_uv_;
-  std::vector<std::pair<int, std::array<int, 3>>> saved_fw_;
-  int saved_small_ = -1;
-  bool saved_mirrored_ = false;  ///< the move reflected the smaller chart (its faces' handedness flipped)
   /// Flips the handedness of `faces`: rest shapes mirrored y -> -y (rest_inv_ times diag(1, -1)).
   void mirror_faces(const std::vector<int>& faces);
-  void save_uv(int w) {
-    if (wstamp_[static_cast<size_t>(w)] == epoch_) return;
-    wstamp_[static_cast<size_t>(w)] = epoch_;
-    saved_uv_.emplace_back(w, uv(w));
+  /// Logs wedge w's position in L's rollback log (once per move).
+  void save_uv(Lane& L, int w) {
+    if (wstamp_[static_cast<size_t>(w)] == L.epoch) return;
+    wstamp_[static_cast<size_t>(w)] = L.epoch;
+    L.saved_uv.emplace_back(w, uv(w));
   }
 };
 

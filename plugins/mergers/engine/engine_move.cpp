@@ -15,13 +15,13 @@ using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 }  // namespace
 
-bool Engine::try_merge(int a, int b, std::string& reason) {
-  Move mv = begin_move(a, b);
+bool Engine::try_merge(int a, int b, std::string& reason, Lane& L) {
+  Move mv = begin_move(a, b, L);
   align(mv);
   weld(mv);
   if (seam_mostly_folded(mv)) {
     reason = "orientation";
-    rollback();
+    rollback(L);
     return false;
   }
   free_region(mv);
@@ -30,32 +30,34 @@ bool Engine::try_merge(int a, int b, std::string& reason) {
     double& acc;
     Clock::time_point t;
     ~CheckTimer() { acc += seconds_since(t); }
-  } timer{rep_.check_seconds, Clock::now()};
+  } timer{L.rep.check_seconds, Clock::now()};
   if (const char* why = check(mv)) {
     reason = why;
-    rollback();
+    rollback(L);
     return false;
   }
   commit(mv);
   return true;
 }
 
-Move Engine::begin_move(int a, int b) {
-  ++epoch_;
-  ++rep_.attempted;
-  saved_uv_.clear();
-  saved_fw_.clear();
+Move Engine::begin_move(int a, int b, Lane& L) {
+  ++L.epoch;
+  ++L.rep.attempted;
+  L.saved_uv.clear();
+  L.saved_fw.clear();
   Move mv;
+  mv.lane = &L;
   mv.big = C(a).uv_area >= C(b).uv_area ? a : b;
   mv.small = mv.big == a ? b : a;
-  saved_small_ = mv.small;
-  saved_mirrored_ = false;
+  L.saved_small = mv.small;
+  L.saved_mirrored = false;
   pair_points(mv.big, mv.small, mv.pairs);
   mv.seam_edges = C(mv.big).adj[mv.small];
   return mv;
 }
 
 void Engine::align(Move& mv) {
+  Lane& L = *mv.lane;
   std::vector<Vec2> p, q;
   for (const auto& [wb, ws] : mv.pairs) {
     q.push_back(uv(wb));
@@ -67,19 +69,20 @@ void Engine::align(Move& mv) {
     // The reflected faces keep their input shape as a mirror image: no face is re-oriented, their
     // distortion and flip tests measure against the mirrored input triangle.
     mirror_faces(C(mv.small).faces);
-    saved_mirrored_ = true;
+    L.saved_mirrored = true;
   }
   for (int f : C(mv.small).faces)
     for (int k = 0; k < 3; ++k) {
       const int w = wedge(f, k);
-      if (wstamp_[static_cast<size_t>(w)] == epoch_) continue;
-      save_uv(w);
-      wmoved_[static_cast<size_t>(w)] = epoch_;
+      if (wstamp_[static_cast<size_t>(w)] == L.epoch) continue;
+      save_uv(L, w);
+      wmoved_[static_cast<size_t>(w)] = L.epoch;
       uv(w) = m(uv(w));
     }
 }
 
 void Engine::weld(Move& mv) {
+  Lane& L = *mv.lane;
   // Union the pairs; each group moves to its mean; representative = a wedge of the bigger chart.
   std::unordered_map<int, int> parent;
   auto find = [&](int x) {
@@ -118,13 +121,13 @@ void Engine::weld(Move& mv) {
     mean /= static_cast<double>(members.size());
     for (int w : members) {
       mv.dmax = std::max(mv.dmax, (uv(w) - mean).norm());
-      save_uv(w);
-      wmoved_[static_cast<size_t>(w)] = epoch_;
+      save_uv(L, w);
+      wmoved_[static_cast<size_t>(w)] = L.epoch;
       uv(w) = mean;
       rep_of[w] = r;
     }
     mv.reps.push_back(r);
-    wrep_[static_cast<size_t>(r)] = epoch_;
+    wrep_[static_cast<size_t>(r)] = L.epoch;
   }
   // Repoint corners of both charts at the welded vertices.
   for (const auto& [root, members] : groups) {
@@ -137,15 +140,15 @@ void Engine::weld(Move& mv) {
       for (int k = 0; k < 3; ++k) {
         auto it = rep_of.find(wedge(f, k));
         if (it == rep_of.end() || it->second == wedge(f, k)) continue;
-        if (fstamp_[static_cast<size_t>(f)] != epoch_) {
-          fstamp_[static_cast<size_t>(f)] = epoch_;
-          saved_fw_.emplace_back(f, at_.face_wedge[static_cast<size_t>(f)]);
+        if (fstamp_[static_cast<size_t>(f)] != L.epoch) {
+          fstamp_[static_cast<size_t>(f)] = L.epoch;
+          L.saved_fw.emplace_back(f, at_.face_wedge[static_cast<size_t>(f)]);
         }
         at_.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)] = it->second;
       }
     }
   }
-  for (int f : C(mv.small).faces) at_.face_chart[static_cast<size_t>(f)] = mv.big;
+  for (int f : C(mv.small).faces) set_chart(f, mv.big);
 }
 
 bool Engine::seam_edge_folded(int ei) const {
@@ -197,13 +200,14 @@ bool Engine::seam_mostly_folded(const Move& mv) const {
 }
 
 void Engine::free_region(Move& mv) {
+  Lane& L = *mv.lane;
   // Dijkstra over UV edge lengths from the welded wedges, radius alpha * dmax.
   const double radius = opt_.alpha * mv.dmax;
   using QE = std::pair<double, int>;
   std::priority_queue<QE, std::vector<QE>, std::greater<QE>> pq;
   auto dist = [&](int w) -> double& {
-    if (wvisit_[static_cast<size_t>(w)] != epoch_) {
-      wvisit_[static_cast<size_t>(w)] = epoch_;
+    if (wvisit_[static_cast<size_t>(w)] != L.epoch) {
+      wvisit_[static_cast<size_t>(w)] = L.epoch;
       wdist_[static_cast<size_t>(w)] = std::numeric_limits<double>::infinity();
     }
     return wdist_[static_cast<size_t>(w)];
@@ -218,8 +222,8 @@ void Engine::free_region(Move& mv) {
     const double d = pq.top().first;
     const int w = pq.top().second;
     pq.pop();
-    if (wdone_[static_cast<size_t>(w)] == epoch_ || d > dist(w)) continue;
-    wdone_[static_cast<size_t>(w)] = epoch_;
+    if (wdone_[static_cast<size_t>(w)] == L.epoch || d > dist(w)) continue;
+    wdone_[static_cast<size_t>(w)] = L.epoch;
     if (d > radius) break;
     bool pinned = false;
     faces_of_wedge(w, mv.big, [&](int f, int) {
@@ -241,6 +245,7 @@ void Engine::free_region(Move& mv) {
 }
 
 void Engine::solve(Move& mv) {
+  Lane& L = *mv.lane;
   LocalProblem lp;
   std::unordered_map<int, int> local;
   for (int w : mv.free_w) {
@@ -250,8 +255,8 @@ void Engine::solve(Move& mv) {
   lp.num_free = static_cast<int>(lp.x.size());
   for (int w : mv.free_w)
     faces_of_wedge(w, mv.big, [&](int f, int) {
-      if (fchanged_[static_cast<size_t>(f)] == epoch_) return;
-      fchanged_[static_cast<size_t>(f)] = epoch_;
+      if (fchanged_[static_cast<size_t>(f)] == L.epoch) return;
+      fchanged_[static_cast<size_t>(f)] = L.epoch;
       mv.prob_faces.push_back(f);
     });
   for (int f : mv.prob_faces)
@@ -269,23 +274,23 @@ void Engine::solve(Move& mv) {
     lp.rest_inv.push_back(rest_inv_[static_cast<size_t>(f)]);
     lp.weight.push_back(rest_w_[static_cast<size_t>(f)]);
   }
-  free_total_ += lp.num_free;
-  ++free_count_;
+  L.free_total += lp.num_free;
+  ++L.free_count;
   const auto t0 = Clock::now();
   mv.solved = solver_.solve(lp).ok;
-  rep_.optimisation_seconds += seconds_since(t0);
+  L.rep.optimisation_seconds += seconds_since(t0);
   for (int i = 0; i < lp.num_free; ++i) {
     const int w = mv.free_w[static_cast<size_t>(i)];
-    save_uv(w);
-    wmoved_[static_cast<size_t>(w)] = epoch_;
+    save_uv(L, w);
+    wmoved_[static_cast<size_t>(w)] = L.epoch;
     uv(w) = lp.x[static_cast<size_t>(i)];
   }
   // Faces whose shape changed (beyond the rigid motion): those around moved seam/free wedges.
   mv.changed = mv.prob_faces;
   for (int r : mv.reps)
     faces_of_wedge(r, mv.big, [&](int f, int) {
-      if (fchanged_[static_cast<size_t>(f)] == epoch_) return;
-      fchanged_[static_cast<size_t>(f)] = epoch_;
+      if (fchanged_[static_cast<size_t>(f)] == L.epoch) return;
+      fchanged_[static_cast<size_t>(f)] = L.epoch;
       mv.changed.push_back(f);
     });
 }
@@ -345,6 +350,7 @@ const char* Engine::check_folds(const Move& mv) const {
 }
 
 const char* Engine::check_distortion(Move& mv) {
+  Lane& L = *mv.lane;
   mv.new_err.assign(mv.changed.size(), 0);
   double delta = 0, lsum = 0, lw = 0;
   for (size_t i = 0; i < mv.changed.size(); ++i) {
@@ -355,12 +361,14 @@ const char* Engine::check_distortion(Move& mv) {
     lw += rest_w_[static_cast<size_t>(f)];
   }
   if (lw > 0 && lsum / lw > opt_.local_bound) return "local_distortion";
-  mv.new_sum = err_sum_ + delta;
-  if (weight_sum_ > 0 && mv.new_sum / weight_sum_ > opt_.global_bound) return "global_distortion";
+  mv.new_sum = L.err_sum + delta;
+  if (L.global_check ? weight_sum_ > 0 && mv.new_sum / weight_sum_ > opt_.global_bound : mv.new_sum > L.err_max)
+    return "global_distortion";
   return nullptr;
 }
 
 const char* Engine::check_fans(const Move& mv) {
+  Lane& L = *mv.lane;
   // The triangles around a wedge must not wrap over each other. Boundary segments that share a
   // wedge are never tested for crossing, so a boundary wedge whose incident angles add up to 2 pi
   // or more (the merge nearly closed a fan whose input angles exceed 2 pi) overlaps without any
@@ -368,14 +376,15 @@ const char* Engine::check_fans(const Move& mv) {
   for (int f : mv.changed)
     for (int k = 0; k < 3; ++k) {
       const int w = wedge(f, k);
-      if (wfan_[static_cast<size_t>(w)] == epoch_) continue;
-      wfan_[static_cast<size_t>(w)] = epoch_;
+      if (wfan_[static_cast<size_t>(w)] == L.epoch) continue;
+      wfan_[static_cast<size_t>(w)] = L.epoch;
       if (fan_overlaps(w, mv.big)) return "fan_overlap";
     }
   return nullptr;
 }
 
 const char* Engine::check_boundary(Move& mv) {
+  Lane& L = *mv.lane;
   // Self-overlap of the merged chart: its moved boundary segments against its other boundary
   // segments. Only edges with a welded (representative) wedge can stop being boundary edges; only
   // edges of the smaller chart and of the changed faces can have moved. The other segments come from
@@ -386,18 +395,18 @@ const char* Engine::check_boundary(Move& mv) {
   auto consider = [&](int f) {
     for (int k = 0; k < 3; ++k) {
       const int e = 3 * f + k;
-      if (!ebnd_[static_cast<size_t>(e)] || emoved_[static_cast<size_t>(e)] == epoch_ ||
-          edead_[static_cast<size_t>(e)] == epoch_)
+      if (!ebnd_[static_cast<size_t>(e)] || emoved_[static_cast<size_t>(e)] == L.epoch ||
+          edead_[static_cast<size_t>(e)] == L.epoch)
         continue;
       const int w0 = wedge(f, k), w1 = wedge(f, (k + 1) % 3);
-      if ((wrep_[static_cast<size_t>(w0)] == epoch_ || wrep_[static_cast<size_t>(w1)] == epoch_) &&
+      if ((wrep_[static_cast<size_t>(w0)] == L.epoch || wrep_[static_cast<size_t>(w1)] == L.epoch) &&
           !is_boundary(f, k, mv.big)) {
-        edead_[static_cast<size_t>(e)] = epoch_;
+        edead_[static_cast<size_t>(e)] = L.epoch;
         mv.dead.push_back(e);
         continue;
       }
-      if (wmoved_[static_cast<size_t>(w0)] == epoch_ || wmoved_[static_cast<size_t>(w1)] == epoch_) {
-        emoved_[static_cast<size_t>(e)] = epoch_;
+      if (wmoved_[static_cast<size_t>(w0)] == L.epoch || wmoved_[static_cast<size_t>(w1)] == L.epoch) {
+        emoved_[static_cast<size_t>(e)] = L.epoch;
         mv.moved_ids.push_back(e);
       }
     }
@@ -417,12 +426,12 @@ const char* Engine::check_boundary(Move& mv) {
   };
   moved.reserve(mv.moved_ids.size());
   for (int e : mv.moved_ids) moved.push_back(segment(e));
-  ++seen_stamp_;
+  ++L.seen_stamp;
   auto visit = [&](int e) {
-    if (eseen_[static_cast<size_t>(e)] == seen_stamp_) return;
-    eseen_[static_cast<size_t>(e)] = seen_stamp_;
-    if (!ebnd_[static_cast<size_t>(e)] || emoved_[static_cast<size_t>(e)] == epoch_ ||
-        edead_[static_cast<size_t>(e)] == epoch_)
+    if (eseen_[static_cast<size_t>(e)] == L.seen_stamp) return;
+    eseen_[static_cast<size_t>(e)] = L.seen_stamp;
+    if (!ebnd_[static_cast<size_t>(e)] || emoved_[static_cast<size_t>(e)] == L.epoch ||
+        edead_[static_cast<size_t>(e)] == L.epoch)
       return;
     all.push_back(segment(e));
   };
@@ -446,6 +455,7 @@ const char* Engine::check_boundary(Move& mv) {
 }
 
 const char* Engine::check_triangles(const Move& mv) {
+  Lane& L = *mv.lane;
   // Every moved or changed triangle against every other triangle of the merged chart. The boundary
   // and fan tests miss overlaps that neither cross a boundary nor wrap a fan seen by this merge:
   // another sheet of a multi-sheeted input chart, or a chart whose fan the earlier merges closed
@@ -468,12 +478,12 @@ const char* Engine::check_triangles(const Move& mv) {
   // tested each pair with a moved triangle) no pair of them is tested again.
   const ChartInfo& Sm = C(mv.small);
   for (int f : Sm.faces)
-    if (rest_w_[static_cast<size_t>(f)] > 0 && fchanged_[static_cast<size_t>(f)] != epoch_) {
+    if (rest_w_[static_cast<size_t>(f)] > 0 && fchanged_[static_cast<size_t>(f)] != L.epoch) {
       mt.push_back(tri2(f));
       grow(mt.back());
     }
   const size_t rigid = Sm.self_overlap ? 0 : mt.size();
-  // The changed faces of both charts (every face with fchanged_ == epoch_ is in `changed`).
+  // The changed faces of both charts (every face with fchanged_ == L.epoch is in `changed`).
   for (int f : mv.changed)
     if (rest_w_[static_cast<size_t>(f)] > 0) {
       mt.push_back(tri2(f));
@@ -485,7 +495,7 @@ const char* Engine::check_triangles(const Move& mv) {
   // triangles span at most kMaxTriCells cells); when the query would visit more cells than the chart
   // has faces, scan the faces instead.
   auto keep = [&](int f) {
-    if (fchanged_[static_cast<size_t>(f)] == epoch_ || rest_w_[static_cast<size_t>(f)] == 0) return;
+    if (fchanged_[static_cast<size_t>(f)] == L.epoch || rest_w_[static_cast<size_t>(f)] == 0) return;
     const Vec2& a = uv(wedge(f, 0));
     const Vec2& b = uv(wedge(f, 1));
     const Vec2& c = uv(wedge(f, 2));
@@ -511,10 +521,10 @@ const char* Engine::check_triangles(const Move& mv) {
   if (ncells > static_cast<double>(Bg.faces.size())) {
     for (int f : Bg.faces) keep(f);
   } else {
-    ++seen_stamp_;
+    ++L.seen_stamp;
     auto visit = [&](int f) {
-      if (fseen_[static_cast<size_t>(f)] == seen_stamp_) return;
-      fseen_[static_cast<size_t>(f)] = seen_stamp_;
+      if (fseen_[static_cast<size_t>(f)] == L.seen_stamp) return;
+      fseen_[static_cast<size_t>(f)] = L.seen_stamp;
       keep(f);
     };
     Bg.tris.query(qr, visit);
@@ -523,9 +533,10 @@ const char* Engine::check_triangles(const Move& mv) {
 }
 
 void Engine::commit(Move& mv) {
-  if (mv.mirrored) ++rep_.accepted_mirrored;
+  Lane& L = *mv.lane;
+  if (mv.mirrored) ++L.rep.accepted_mirrored;
   for (size_t i = 0; i < mv.changed.size(); ++i) err_w_[static_cast<size_t>(mv.changed[i])] = mv.new_err[i];
-  err_sum_ = mv.new_sum;
+  L.err_sum = mv.new_sum;
   commit_grids(mv);
   commit_boundary(mv);
   commit_chart(mv);
@@ -606,6 +617,12 @@ void Engine::commit_chart(const Move& mv) {
     if (c == mv.big) continue;
     auto& to = Bg.adj[c];
     to.insert(to.end(), edges.begin(), edges.end());
+    if (!across_ && C(c).region != Bg.region) {
+      // note: a chart of another region (or of none) belongs to another lane, which may run on another
+      // thread: its adjacency keeps naming the absorbed chart until rebuild_adjacency after the pass.
+      mv.lane->stale_adjacency = true;
+      continue;
+    }
     auto& back = C(c).adj;
     auto& tb = back[mv.big];
     tb.insert(tb.end(), edges.begin(), edges.end());
@@ -615,13 +632,13 @@ void Engine::commit_chart(const Move& mv) {
   refresh_planarity(mv.big);
 }
 
-void Engine::rollback() {
-  for (auto it = saved_uv_.rbegin(); it != saved_uv_.rend(); ++it) uv(it->first) = it->second;
-  for (auto it = saved_fw_.rbegin(); it != saved_fw_.rend(); ++it)
+void Engine::rollback(Lane& L) {
+  for (auto it = L.saved_uv.rbegin(); it != L.saved_uv.rend(); ++it) uv(it->first) = it->second;
+  for (auto it = L.saved_fw.rbegin(); it != L.saved_fw.rend(); ++it)
     at_.face_wedge[static_cast<size_t>(it->first)] = it->second;
-  for (int f : C(saved_small_).faces) at_.face_chart[static_cast<size_t>(f)] = saved_small_;
-  if (saved_mirrored_) mirror_faces(C(saved_small_).faces);
-  saved_mirrored_ = false;
+  for (int f : C(L.saved_small).faces) set_chart(f, L.saved_small);
+  if (L.saved_mirrored) mirror_faces(C(L.saved_small).faces);
+  L.saved_mirrored = false;
 }
 
 }  // namespace texdefrag::merge::detail

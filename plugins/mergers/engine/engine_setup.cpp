@@ -4,7 +4,12 @@
 
 #include "texdefrag/core/distortion.h"
 
+#include "texdefrag/util/parallel.h"
+
+#include <atomic>
+#include <limits>
 #include <numeric>
+#include <thread>
 
 namespace texdefrag::merge::detail {
 
@@ -91,9 +96,9 @@ void Engine::setup_rest_shapes() {
   for (size_t f = 0; f < nf; ++f) {
     if (rest_w_[f] == 0) continue;
     err_w_[f] = weighted_err(static_cast<int>(f));
-    err_sum_ += err_w_[f];
+    main_.err_sum += err_w_[f];
   }
-  rep_.distortion_in = weight_sum_ > 0 ? err_sum_ / weight_sum_ : 0;
+  rep_.distortion_in = weight_sum_ > 0 ? main_.err_sum / weight_sum_ : 0;
 }
 
 void Engine::setup_charts() {
@@ -165,8 +170,8 @@ void Engine::setup_charts() {
   }
 }
 
-void Engine::setup_seams_and_grids() {
-  const size_t nf = mesh_.faces.size();
+void Engine::rebuild_adjacency() {
+  for (ChartInfo& ch : charts_) ch.adj.clear();
   // Seam edges: manifold, two textured non-degenerate faces in different charts.
   for (size_t ei = 0; ei < topo_.edges.size(); ++ei) {
     const Edge& e = topo_.edges[ei];
@@ -180,6 +185,11 @@ void Engine::setup_seams_and_grids() {
     C(ca).adj[cb].push_back(static_cast<int>(ei));
     C(cb).adj[ca].push_back(static_cast<int>(ei));
   }
+}
+
+void Engine::setup_seams_and_grids() {
+  const size_t nf = mesh_.faces.size();
+  rebuild_adjacency();
   wstamp_.assign(at_.wedge_uv.size(), 0);
   wmoved_.assign(at_.wedge_uv.size(), 0);
   wdist_.assign(at_.wedge_uv.size(), 0);
@@ -274,8 +284,10 @@ void Engine::refresh_planarity(int c) {
 bool Engine::candidate(int a, int b) const {
   const ChartInfo& A = charts_[static_cast<size_t>(a)];
   const ChartInfo& B = charts_[static_cast<size_t>(b)];
-  return a != b && A.alive && B.alive && !A.locked && !B.locked && (opt_.cross_page || A.page == B.page) &&
-         (across_ || (A.region >= 0 && A.region == B.region));
+  // note: the region test first: in the first pass a chart of another region belongs to another lane,
+  // whose thread may be changing its other fields (region and locked never change).
+  if (a == b || !(across_ || (A.region >= 0 && A.region == B.region))) return false;
+  return A.alive && B.alive && !A.locked && !B.locked && (opt_.cross_page || A.page == B.page);
 }
 
 void Engine::pair_points(int big, int small, std::vector<std::pair<int, int>>& pairs) {
@@ -308,28 +320,37 @@ bool Engine::island_lookahead(int a, int b, int max_steps) const {
   for (int c : sorted_neighbours(b)) nab.push_back(c);
   std::sort(nab.begin(), nab.end());
   nab.erase(std::unique(nab.begin(), nab.end()), nab.end());
+  // In the first pass the visit stays in a's region: reaching a chart of another region (or of none)
+  // other than c ends it unsuccessfully, so it never reads another lane's adjacency. Such charts are
+  // known by their ids at the start of the pass (their lanes' merges do not update a's lists).
+  auto outside = [&](int c) { return !across_ && charts_[static_cast<size_t>(c)].region != A.region; };
   for (int c : nab) {
     std::vector<int> stack{a}, visited{c, a};
     int steps = 0;
+    bool blocked = false;
     auto seen = [&](int x) { return std::find(visited.begin(), visited.end(), x) != visited.end(); };
-    while (!stack.empty() && steps <= max_steps) {
+    while (!stack.empty() && steps <= max_steps && !blocked) {
       const int sc = stack.back();
       stack.pop_back();
       if (!seen(sc)) visited.push_back(sc);
       for (int ac : sorted_neighbours(sc)) {
         if (!seen(ac)) {
+          if (outside(ac)) {
+            blocked = true;
+            break;
+          }
           stack.push_back(ac);
           ++steps;
         }
         if (steps > max_steps) break;
       }
     }
-    if (stack.empty()) return true;  // the component of a without c has c as its only neighbour
+    if (!blocked && stack.empty()) return true;  // the component of a without c has c as its only neighbour
   }
   return false;
 }
 
-double Engine::score(int a, int b, int& refusal) {
+double Engine::score(Lane& L, int a, int b, int& refusal) {
   ChartInfo& A = C(a);
   ChartInfo& B = C(b);
   refusal = 0;
@@ -359,7 +380,7 @@ double Engine::score(int a, int b, int& refusal) {
     ++nedges;
   }
   const double ra = la > 0 ? A.border / la : 1e30, rb = lb > 0 ? B.border / lb : 1e30;
-  const double cost = err * std::min(ra, rb) * std::min(A.uv_area, B.uv_area) * pair_state(a, b).penalty;
+  const double cost = err * std::min(ra, rb) * std::min(A.uv_area, B.uv_area) * L.pair_state(a, b).penalty;
   const double mean_seam = nedges ? 0.5 * (la + lb) / static_cast<double>(nedges) : 0;
   if (la < 0.2 * A.border && lb < 0.2 * B.border && !(across_ && !opt_.second_pass_seam_refusal) &&
       !island_lookahead(a, b, kIslandLookaheadSteps))
@@ -369,17 +390,17 @@ double Engine::score(int a, int b, int& refusal) {
   return -cost;
 }
 
-void Engine::push_pair(int a, int b) {
+void Engine::push_pair(Lane& L, int a, int b) {
   if (a > b) std::swap(a, b);
   if (!candidate(a, b)) return;
-  PairState& ps = pair_state(a, b);
+  PairState& ps = L.pair_state(a, b);
   if (ps.attempts >= opt_.max_attempts) return;
   if (ps.va == C(a).version && ps.vb == C(b).version) return;  // its newest entry is current
   Entry e{0, a, b, C(a).version, C(b).version, 0};
-  e.score = score(a, b, e.refusal);
+  e.score = score(L, a, b, e.refusal);
   ps.va = e.va;
   ps.vb = e.vb;
-  queue_.push(e);
+  L.queue.push(e);
 }
 
 void Engine::grid_insert(int c, int f) {
@@ -424,38 +445,162 @@ void Engine::grid_remove(int f) {
   fowner_[static_cast<size_t>(f)] = -1;
 }
 
+namespace {
+/// Adds the move counters of `from` (attempts, acceptances, rejections, seconds) to `to`.
+void add_counters(MergeReport& to, const MergeReport& from) {
+  to.candidates_initial += from.candidates_initial;
+  to.attempted += from.attempted;
+  to.accepted += from.accepted;
+  to.accepted_mirrored += from.accepted_mirrored;
+  for (const auto& [k, v] : from.rejected) to.rejected[k] += v;
+  to.optimisation_seconds += from.optimisation_seconds;
+  to.check_seconds += from.check_seconds;
+}
+}  // namespace
+
 MergeReport Engine::run(const Progress& progress) {
   setup();
-  for (int c = 0; c < at_.num_charts; ++c)
-    for (const auto& [n, edges] : C(c).adj)
-      if (c < n && candidate(c, n)) {
-        ++rep_.candidates_initial;
-        push_pair(c, n);
-      }
   refreshed_area_.resize(charts_.size());
   for (size_t c = 0; c < charts_.size(); ++c) refreshed_area_[c] = charts_[c].uv_area;
   const bool second = opt_.second_pass == SecondPass::AcrossRegions;
-  drain(progress, 0, second ? 0.6 : 1.0);
+  first_pass(progress, second ? 0.6 : 1.0);
+  if (overspent_) return rep_;  // the atlas is as it was given; run_merges runs again with shares
   rep_.charts_after_first_pass = 0;
   for (const ChartInfo& ch : charts_) rep_.charts_after_first_pass += ch.alive && !ch.faces.empty();
-  rep_.distortion_after_first_pass = weight_sum_ > 0 ? err_sum_ / weight_sum_ : 0;
+  rep_.distortion_after_first_pass = global_distortion();
   if (second) {
-    const size_t before = rep_.accepted;
+    main_.max_merges = opt_.max_merges;
+    const size_t before = main_.rep.accepted;
     const int steps = std::max(1, opt_.second_pass_steps);
     for (int i = 0; i < steps; ++i) {
       start_second_pass(opt_.second_pass_local_bound / std::pow(2.0, steps - 1 - i));
-      drain(progress, 0.6 + 0.4 * i / steps, 0.4 / steps);
+      drain(main_, progress, 0.6 + 0.4 * i / steps, 0.4 / steps);
     }
-    rep_.accepted_second_pass = rep_.accepted - before;
+    rep_.accepted_second_pass = main_.rep.accepted - before;
   }
   if (progress) progress(1.0);
-  rep_.mean_free_vertices = free_count_ ? free_total_ / static_cast<double>(free_count_) : 0;
+  add_counters(rep_, main_.rep);
+  rep_.mean_free_vertices = main_.free_count ? main_.free_total / static_cast<double>(main_.free_count) : 0;
   rep_.charts_out = static_cast<size_t>(at_.compact());
   const DistortionSummary ds = atlas_distortion(mesh_, at_, build_charts(mesh_, topo_).atlas.face_chart);
   for (char m : fmirror_) rep_.mirrored_faces_out += m != 0;
   rep_.distortion_out = ds.arap;
   rep_.flipped_out = ds.flipped;
   return rep_;
+}
+
+void Engine::first_pass(const Progress& progress, double span) {
+  std::vector<Lane> lanes = make_region_lanes();
+  rep_.first_pass_lanes = lanes.size();
+  // Without budget shares the lanes skip the global check, and the pass stands when the global
+  // distortion after it is within the bound (it is far under it on every model measured). Else the
+  // atlas is restored and run_merges runs the engine again with shares, which always hold.
+  const bool optimistic = lanes.size() > 1 && !budget_shares_;
+  Atlas before;
+  if (optimistic) before = at_;
+  run_lanes(lanes, progress, span);
+  join_lanes(lanes);
+  if (optimistic && global_distortion() > opt_.global_bound) {
+    at_ = std::move(before);
+    overspent_ = true;
+  }
+}
+
+std::vector<Lane> Engine::make_region_lanes() {
+  int nregions = 0;
+  for (const ChartInfo& ch : charts_) nregions = std::max(nregions, ch.region + 1);
+  std::vector<std::vector<int>> members(static_cast<size_t>(nregions));
+  for (int c = 0; c < static_cast<int>(charts_.size()); ++c)
+    if (C(c).region >= 0) members[static_cast<size_t>(C(c).region)].push_back(c);
+  // With budget shares, each region's share of the global budget is proportional to its input UV
+  // area, so the shares add up to the global bound whatever the lanes do.
+  const double spare = opt_.global_bound * weight_sum_ - main_.err_sum;
+  std::vector<Lane> lanes;
+  for (int r = 0; r < nregions; ++r) {
+    Lane L;
+    L.region = r;
+    L.epoch = main_.epoch;
+    L.seen_stamp = main_.seen_stamp;
+    for (int c : members[static_cast<size_t>(r)])
+      for (const auto& [n, edges] : C(c).adj)
+        if (c < n && candidate(c, n)) {
+          ++L.rep.candidates_initial;
+          push_pair(L, c, n);
+        }
+    if (L.queue.empty()) continue;
+    double wr = 0;
+    for (int c : members[static_cast<size_t>(r)])
+      for (int f : C(c).faces) {
+        wr += rest_w_[static_cast<size_t>(f)];
+        L.err_sum += err_w_[static_cast<size_t>(f)];
+      }
+    L.global_check = false;
+    if (budget_shares_) L.err_max = L.err_sum + (weight_sum_ > 0 ? spare * (wr / weight_sum_) : 0);
+    lanes.push_back(std::move(L));
+  }
+  if (lanes.size() == 1) {
+    // One region holds every candidate: its lane checks the global budget itself.
+    lanes[0].err_sum = main_.err_sum;
+    lanes[0].global_check = true;
+  }
+  return lanes;
+}
+
+void Engine::run_lanes(std::vector<Lane>& lanes, const Progress& progress, double span) {
+  const size_t n = lanes.size();
+  // A limit on merges that could bind makes the lanes depend on each other: they then run one after
+  // the other in region order, each with what is left of the limit.
+  const bool independent = opt_.max_merges >= static_cast<long long>(charts_.size());
+  if (!independent || n < 2 || thread_count() < 2 || !solver_.reentrant()) {
+    long long left = opt_.max_merges;
+    for (size_t i = 0; i < n; ++i) {
+      lanes[i].max_merges = left;
+      drain(lanes[i], progress, span * static_cast<double>(i) / static_cast<double>(n), span / static_cast<double>(n));
+      left -= static_cast<long long>(lanes[i].rep.accepted);
+    }
+    return;
+  }
+  // Biggest queues first (the pool hands items out in order); lanes never touch each other's charts.
+  std::vector<size_t> order(n);
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t x, size_t y) { return lanes[x].queue.size() > lanes[y].queue.size(); });
+  const std::thread::id caller = std::this_thread::get_id();
+  std::atomic<size_t> done{0};
+  parallel_for(n, [&](size_t i) {
+    Lane& L = lanes[order[i]];
+    L.max_merges = opt_.max_merges;
+    // note: progress is reported from the calling thread only (the callback need not be thread-safe).
+    const bool report = progress && std::this_thread::get_id() == caller;
+    const double base = span * static_cast<double>(done.load()) / static_cast<double>(n);
+    drain(L, report ? progress : Progress(), base, span / static_cast<double>(n));
+    ++done;
+  });
+}
+
+void Engine::join_lanes(std::vector<Lane>& lanes) {
+  bool stale = false;
+  for (Lane& L : lanes) {
+    add_counters(main_.rep, L.rep);
+    main_.free_total += L.free_total;
+    main_.free_count += L.free_count;
+    if (main_.pairs.empty()) {
+      main_.pairs = std::move(L.pairs);
+    } else {
+      for (const auto& [key, ps] : L.pairs) main_.pairs[key] = ps;
+    }
+    main_.epoch = std::max(main_.epoch, L.epoch);
+    main_.seen_stamp = std::max(main_.seen_stamp, L.seen_stamp);
+    stale = stale || L.stale_adjacency;
+  }
+  if (lanes.size() == 1 && lanes[0].global_check) {
+    main_.err_sum = lanes[0].err_sum;
+  } else if (!lanes.empty()) {
+    // note: summed again in face order: the lanes' sums in any order would round differently.
+    main_.err_sum = 0;
+    for (double e : err_w_) main_.err_sum += e;
+  }
+  if (stale) rebuild_adjacency();
 }
 
 void Engine::start_second_pass(double local_bound) {
@@ -472,7 +617,7 @@ void Engine::start_second_pass(double local_bound) {
       if (ebnd_[3 * static_cast<size_t>(f) + static_cast<size_t>(k)]) ch.border += edge_uv_len(f, k);
   }
   // Every adjacent pair is queued again under the new order (pairs that used up max_attempts stay out).
-  for (auto& [key, ps] : pairs_) {
+  for (auto& [key, ps] : main_.pairs) {
     ps.va = ps.vb = -1;
     if (!first_step) ps.attempts = 0;  // a later step has a looser local bound: try again
   }
@@ -481,28 +626,28 @@ void Engine::start_second_pass(double local_bound) {
     std::vector<int> nb;
     for (const auto& [n, edges] : C(c).adj)
       if (c < n) nb.push_back(n);
-    for (int n : nb) push_pair(c, n);
+    for (int n : nb) push_pair(main_, c, n);
   }
 }
 
-void Engine::drain(const Progress& progress, double base, double span) {
+void Engine::drain(Lane& L, const Progress& progress, double base, double span) {
   size_t popped = 0;
-  while (!queue_.empty() && static_cast<long long>(rep_.accepted) < opt_.max_merges) {
-    const Entry e = queue_.top();
-    queue_.pop();
+  while (!L.queue.empty() && static_cast<long long>(L.rep.accepted) < L.max_merges) {
+    const Entry e = L.queue.top();
+    L.queue.pop();
     if ((++popped & 255) == 0 && progress)
-      progress(base + span * static_cast<double>(popped) / static_cast<double>(popped + queue_.size()));
+      progress(base + span * static_cast<double>(popped) / static_cast<double>(popped + L.queue.size()));
     if (!C(e.a).alive || !C(e.b).alive) continue;
     if (C(e.a).version != e.va || C(e.b).version != e.vb) {
       // note: lazy refresh: a stale entry is re-scored and queued again (once per version pair).
-      push_pair(e.a, e.b);
+      push_pair(L, e.a, e.b);
       continue;
     }
-    PairState& ps = pair_state(e.a, e.b);
+    PairState& ps = L.pair_state(e.a, e.b);
     if (ps.attempts >= opt_.max_attempts) continue;
     ++ps.attempts;
     if (e.refusal) {
-      ++rep_.rejected[kRefusal[e.refusal]];
+      ++L.rep.rejected[kRefusal[e.refusal]];
       continue;
     }
     std::string reason;
@@ -511,8 +656,8 @@ void Engine::drain(const Progress& progress, double base, double span) {
     std::vector<int> fresh;
     for (const auto& [n, edges] : C(small0).adj)
       if (n != big0 && !C(big0).adj.count(n)) fresh.push_back(n);
-    if (try_merge(e.a, e.b, reason)) {
-      ++rep_.accepted;
+    if (try_merge(e.a, e.b, reason, L)) {
+      ++L.rep.accepted;
       const int big = big0;
       ChartInfo& B = C(big);
       // Re-queue every pair of the merged chart when its area grew by a quarter since the last
@@ -522,12 +667,12 @@ void Engine::drain(const Progress& progress, double base, double span) {
         refreshed_area_[static_cast<size_t>(big)] = B.uv_area;
         std::vector<int> nb;
         for (const auto& [n, edges] : B.adj) nb.push_back(n);
-        for (int n : nb) push_pair(big, n);
+        for (int n : nb) push_pair(L, big, n);
       } else {
-        for (int n : fresh) push_pair(big, n);
+        for (int n : fresh) push_pair(L, big, n);
       }
     } else {
-      ++rep_.rejected[reason];
+      ++L.rep.rejected[reason];
       ps.penalty *= 2;  // the M-method's penalty (used by its cost only)
     }
   }

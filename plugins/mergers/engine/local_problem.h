@@ -50,6 +50,9 @@ class LocalSolver {
   /// touches pinned positions. Returns ok = false when the result still has inverted triangles
   /// (det F <= 0) that it could not remove; the caller then rejects the merge.
   virtual SolveResult solve(LocalProblem& p) = 0;
+  /// Whether solve may run on several threads at once (on different problems): true for solvers that
+  /// keep no state between calls. The merge engine runs its first pass's regions side by side only then.
+  virtual bool reentrant() const { return false; }
 };
 
 /// The 4x6 matrix D with vec(F) = D * local corner coordinates, for a triangle with rest_inv.

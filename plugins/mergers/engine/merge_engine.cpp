@@ -96,6 +96,8 @@ json MergeReport::to_json() const {
   j["merges_mirrored"] = accepted_mirrored;
   j["mirrored_faces_out"] = mirrored_faces_out;
   j["distortion_after_first_pass"] = distortion_after_first_pass;
+  j["first_pass_budget_shares"] = first_pass_budget_shares;
+  j["first_pass_lanes"] = first_pass_lanes;
   json rej = json::object();
   size_t total = 0;
   for (const auto& [k, v] : rejected) {
@@ -113,8 +115,16 @@ json MergeReport::to_json() const {
 
 MergeReport run_merges(const TexturedMesh& mesh, const Topology& topo, Atlas& atlas, const std::vector<int>& face_region,
                        const MergeOptions& opt, LocalSolver& solver, const Progress& progress) {
+  {
+    detail::Engine e(mesh, topo, atlas, face_region, opt, solver);
+    MergeReport r = e.run(progress);
+    if (!e.overspent()) return r;
+  }
   detail::Engine e(mesh, topo, atlas, face_region, opt, solver);
-  return e.run(progress);
+  e.use_budget_shares();
+  MergeReport r = e.run(progress);
+  r.first_pass_budget_shares = true;
+  return r;
 }
 
 void run_merge_stage(StageContext& ctx, const std::string& stage, const MergeOptions& opt, LocalSolver& solver) {

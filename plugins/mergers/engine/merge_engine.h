@@ -77,7 +77,11 @@ struct MergeReport {
   size_t accepted_second_pass = 0;     ///< merges accepted by the cross-region pass
   size_t accepted_mirrored = 0;        ///< accepted merges that reflected the smaller chart
   size_t mirrored_faces_out = 0;       ///< faces laid out as a mirror image of their input UV triangle
-  double distortion_after_first_pass = 0;  ///< global ARAP distortion at that moment (incremental)
+  double distortion_after_first_pass = 0;  ///< global ARAP distortion at that moment
+  /// The first pass ran again with per-region budget shares (docs/mergers.md, "Parallel first pass"):
+  /// without them it ended above global_bound.
+  bool first_pass_budget_shares = false;
+  size_t first_pass_lanes = 0;  ///< regions with candidate pairs: the first pass's independent queues
   std::map<std::string, size_t> rejected;  ///< by reason
   double distortion_in = 0;           ///< global ARAP distortion of the atlas given to the engine
   double distortion_out = 0;          ///< after merging (recomputed from scratch)

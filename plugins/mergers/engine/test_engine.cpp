@@ -7,6 +7,7 @@
 #include "test_support.h"
 
 #include "texdefrag/core/distortion.h"
+#include "texdefrag/util/parallel.h"
 
 #include <gtest/gtest.h>
 
@@ -368,6 +369,50 @@ TEST(MergeEngine, MaxMergesStops) {
   const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {}, o, solver, {});
   EXPECT_EQ(r.accepted, 5u);
   EXPECT_EQ(r.charts_out, 32u - 5u);
+}
+
+/// Region per face of a grid: four bands along x (the first pass's lanes).
+std::vector<int> x_bands(const TexturedMesh& m, double width) {
+  std::vector<int> r(m.faces.size());
+  for (size_t f = 0; f < m.faces.size(); ++f) {
+    const double cx = (m.corner_position(f, 0).x() + m.corner_position(f, 1).x() + m.corner_position(f, 2).x()) / 3;
+    r[f] = std::min(3, static_cast<int>(cx / width));
+  }
+  return r;
+}
+
+TEST(MergeEngine, RegionLanesGiveTheSameAtlasForAnyThreadCount) {
+  // Four regions = four first-pass lanes, run side by side with 3 threads and one after the other
+  // with 1: the atlas must be the same bit for bit, with the global check after the pass (bound
+  // 0.025) and with per-region budget shares (a bound the first pass overspends).
+  for (double bound : {0.025, 0.002}) {
+    std::vector<Atlas> out;
+    std::vector<MergeReport> reps;
+    for (int threads : {1, 3}) {
+      set_thread_count(threads);
+      test::Run run(test::distorted_fragmented_grid(8, 6, 0.08));
+      MergeOptions o;
+      o.priority = Priority::MMethod;
+      o.global_bound = bound;
+      o.second_pass = SecondPass::AcrossRegions;
+      ArapSolver solver;
+      reps.push_back(run_merges(run.mesh, run.topo, run.ctx.atlas, x_bands(run.mesh, 2.0), o, solver, {}));
+      out.push_back(run.ctx.atlas);
+      test::expect_valid_atlas(run);
+    }
+    set_thread_count(0);
+    EXPECT_EQ(reps[0].first_pass_lanes, 4u);
+    EXPECT_EQ(reps[0].first_pass_budget_shares, bound < 0.01) << "bound " << bound;
+    EXPECT_EQ(reps[1].first_pass_budget_shares, reps[0].first_pass_budget_shares);
+    EXPECT_LE(reps[0].distortion_out, bound * (1 + 1e-9));
+    EXPECT_GT(reps[0].accepted, 10u);
+    EXPECT_EQ(reps[0].accepted, reps[1].accepted);
+    EXPECT_EQ(out[0].face_chart, out[1].face_chart);
+    EXPECT_EQ(out[0].face_wedge, out[1].face_wedge);
+    ASSERT_EQ(out[0].wedge_uv.size(), out[1].wedge_uv.size());
+    for (size_t w = 0; w < out[0].wedge_uv.size(); ++w)
+      ASSERT_TRUE(out[0].wedge_uv[w] == out[1].wedge_uv[w]) << "wedge " << w << " bound " << bound;
+  }
 }
 
 TEST(MergeEngine, RegionsOfTheWrongSizeAreAnError) {

@@ -34,6 +34,7 @@ class SdNewtonSolver final : public LocalSolver {
  public:
   explicit SdNewtonSolver(SdNewtonSettings s = {}) : s_(s) {}
   SolveResult solve(LocalProblem& p) override;
+  bool reentrant() const override { return true; }  ///< no state between calls
 
  private:
   SdNewtonSettings s_;
