@@ -3,7 +3,9 @@
 // - the local problems a real merge run hands to its solver (recorded once from an M-method run
 //   with the Eigen solver on t015_L18, then each solver solves copies of the same problems), split
 //   by free-region size;
-// - whole real tiles (the engine with each solver, M-method order, defaults).
+// - whole real tiles (the engine with each solver, M-method order, defaults);
+// - the first pass's regions side by side (docs/mergers.md, "Parallel first pass"): t016_L19 with one
+//   region per dominant normal axis, best.json's merger options, 1 and 2 threads.
 // Run: bench_mergers_arap [--benchmark_filter=...]. Real data absent: the cases skip with an error.
 #include "arap_solver.h"
 #include "ceres_arap_solver.h"
@@ -13,9 +15,11 @@
 #include "texdefrag/core/topology.h"
 #include "texdefrag/io/obj.h"
 #include "texdefrag/testing/fixtures.h"
+#include "texdefrag/util/parallel.h"
 
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <ctime>
 #include <map>
 #include <memory>
@@ -171,6 +175,48 @@ void whole_tile(benchmark::State& state, const char* rel, std::unique_ptr<LocalS
   state.counters["flip_rej"] = static_cast<double>(r.rejected.count("flip") ? r.rejected.at("flip") : 0);
 }
 
+/// Region per face: the axis (and sign) its 3D normal points along most (six labels, enough lanes).
+std::vector<int> normal_axis_regions(const TexturedMesh& m) {
+  std::vector<int> r(m.faces.size());
+  for (size_t f = 0; f < m.faces.size(); ++f) {
+    const Vec3 n = (m.corner_position(f, 1) - m.corner_position(f, 0)).cross(m.corner_position(f, 2) - m.corner_position(f, 0));
+    int axis = 0;
+    for (int k = 1; k < 3; ++k)
+      if (std::abs(n[k]) > std::abs(n[axis])) axis = k;
+    r[f] = 2 * axis + (n[axis] < 0 ? 1 : 0);
+  }
+  return r;
+}
+
+// Argument = threads. Counters: wall seconds of each pass, lanes, charts out (the same for any count).
+void BM_RegionLanesT016L19(benchmark::State& state) {
+  const TexturedMesh& m = tile(kT016L19);
+  if (m.faces.empty()) return state.SkipWithError("shared data absent");
+  const Topology topo = build_topology(m);
+  const ChartSet cs = build_charts(m, topo);
+  const std::vector<int> regions = normal_axis_regions(m);
+  set_thread_count(static_cast<int>(state.range(0)));
+  MergeReport r;
+  for (auto _ : state) {
+    Atlas at = cs.atlas;
+    ArapSolver solver;
+    MergeOptions o;  // best.json's merger options
+    o.priority = Priority::MMethod;
+    o.second_pass = SecondPass::AcrossRegions;
+    o.second_pass_local_bound = 0.1;
+    o.second_pass_seam_refusal = false;
+    o.min_singular_value = 0.2;
+    r = run_merges(m, topo, at, regions, o, solver, {});
+    benchmark::DoNotOptimize(at.num_charts);
+  }
+  set_thread_count(0);
+  state.counters["first_pass_s"] = r.first_pass_seconds;
+  state.counters["second_pass_s"] = r.second_pass_seconds;
+  state.counters["lanes"] = static_cast<double>(r.first_pass_lanes);
+  state.counters["charts_out"] = static_cast<double>(r.charts_out);
+  state.counters["E"] = r.distortion_out;
+}
+
 void BM_TileT015Eigen(benchmark::State& s) { whole_tile(s, kT015, eigen_solver); }
 void BM_TileT015Ceres(benchmark::State& s) { whole_tile(s, kT015, ceres_suitesparse); }
 void BM_TileT016L19Eigen(benchmark::State& s) { whole_tile(s, kT016L19, eigen_solver); }
@@ -187,6 +233,7 @@ BENCHMARK(BM_TileT015Eigen)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_TileT015Ceres)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_TileT016L19Eigen)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_TileT016L19Ceres)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_RegionLanesT016L19)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace
 }  // namespace texdefrag::merge

@@ -140,6 +140,9 @@ struct Lane {
   std::vector<std::pair<int, std::array<int, 3>>> saved_fw;
   int saved_small = -1;
   bool saved_mirrored = false;  ///< the move reflected the smaller chart (its faces' handedness flipped)
+  // ---- scratch of score() (kept to spare allocations; the queue scores every pair it pushes)
+  std::vector<std::pair<int, int>> score_pairs;
+  std::vector<Vec2> score_p, score_q;
 };
 
 /// One merge attempt: what each step of try_merge hands to the next.
@@ -321,6 +324,7 @@ class Engine {
   // ---- per-move scratch with epoch stamps (Lane::epoch; each element is only stamped by its region's lane)
   std::vector<int> wstamp_, wmoved_, wrep_, wvisit_, wdone_, wfan_, fstamp_, fchanged_;
   std::vector<double> wdist_;
+  std::vector<int> wlocal_, wlocal_stamp_;  ///< solve: local index of a wedge in the problem, its stamp
   // ---- per-chart triangle grids (cell size tri_cell_, shared by all charts)
   double tri_cell_ = 1;
   std::vector<int> fowner_;                 ///< chart whose grid holds face f (-1: none)

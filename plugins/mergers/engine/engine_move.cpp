@@ -247,11 +247,14 @@ void Engine::free_region(Move& mv) {
 void Engine::solve(Move& mv) {
   Lane& L = *mv.lane;
   LocalProblem lp;
-  std::unordered_map<int, int> local;
-  for (int w : mv.free_w) {
-    local[w] = static_cast<int>(lp.x.size());
+  // Local index of each wedge of the problem: wlocal_[w], valid when wlocal_stamp_[w] == L.epoch.
+  auto add_local = [&](int w) {
+    wlocal_stamp_[static_cast<size_t>(w)] = L.epoch;
+    wlocal_[static_cast<size_t>(w)] = static_cast<int>(lp.x.size());
     lp.x.push_back(uv(w));
-  }
+  };
+  auto local = [&](int w) { return wlocal_[static_cast<size_t>(w)]; };
+  for (int w : mv.free_w) add_local(w);
   lp.num_free = static_cast<int>(lp.x.size());
   for (int w : mv.free_w)
     faces_of_wedge(w, mv.big, [&](int f, int) {
@@ -261,16 +264,13 @@ void Engine::solve(Move& mv) {
     });
   for (int f : mv.prob_faces)
     for (int k = 0; k < 3; ++k)
-      if (!local.count(wedge(f, k))) {
-        local[wedge(f, k)] = static_cast<int>(lp.x.size());
-        lp.x.push_back(uv(wedge(f, k)));
-      }
+      if (wlocal_stamp_[static_cast<size_t>(wedge(f, k))] != L.epoch) add_local(wedge(f, k));
   if (lp.num_free > 0 && static_cast<int>(lp.x.size()) == lp.num_free) {
     // The whole chart is free: pin the farthest free wedge so rigid motions are fixed.
     --lp.num_free;
   }
   for (int f : mv.prob_faces) {
-    lp.tri.push_back({local[wedge(f, 0)], local[wedge(f, 1)], local[wedge(f, 2)]});
+    lp.tri.push_back({local(wedge(f, 0)), local(wedge(f, 1)), local(wedge(f, 2))});
     lp.rest_inv.push_back(rest_inv_[static_cast<size_t>(f)]);
     lp.weight.push_back(rest_w_[static_cast<size_t>(f)]);
   }

@@ -7,6 +7,7 @@
 #include "texdefrag/util/parallel.h"
 
 #include <atomic>
+#include <chrono>
 #include <limits>
 #include <numeric>
 #include <thread>
@@ -197,6 +198,8 @@ void Engine::setup_seams_and_grids() {
   wfan_.assign(at_.wedge_uv.size(), 0);
   wrep_.assign(at_.wedge_uv.size(), 0);
   wdone_.assign(at_.wedge_uv.size(), 0);
+  wlocal_.assign(at_.wedge_uv.size(), 0);
+  wlocal_stamp_.assign(at_.wedge_uv.size(), 0);
   fstamp_.assign(nf, 0);
   fchanged_.assign(nf, 0);
   // Triangle grids: cell = twice the mean longest UV edge of the textured faces.
@@ -358,9 +361,12 @@ double Engine::score(Lane& L, int a, int b, int& refusal) {
     return std::max(A.planarity, B.planarity) * std::max(A.uv_area, B.uv_area);
   // M-method cost: err * min(B_a/L_a, B_b/L_b) * min(area_a, area_b) * penalty, smaller first.
   const int big = A.uv_area >= B.uv_area ? a : b, small = big == a ? b : a;
-  std::vector<std::pair<int, int>> pairs;
+  std::vector<std::pair<int, int>>& pairs = L.score_pairs;
   pair_points(big, small, pairs);
-  std::vector<Vec2> p, q;
+  std::vector<Vec2>& p = L.score_p;
+  std::vector<Vec2>& q = L.score_q;
+  p.clear();
+  q.clear();
   for (const auto& [wb, ws] : pairs) {
     q.push_back(uv(wb));
     p.push_back(uv(ws));
@@ -463,12 +469,16 @@ MergeReport Engine::run(const Progress& progress) {
   refreshed_area_.resize(charts_.size());
   for (size_t c = 0; c < charts_.size(); ++c) refreshed_area_[c] = charts_[c].uv_area;
   const bool second = opt_.second_pass == SecondPass::AcrossRegions;
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
   first_pass(progress, second ? 0.6 : 1.0);
+  rep_.first_pass_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   if (overspent_) return rep_;  // the atlas is as it was given; run_merges runs again with shares
   rep_.charts_after_first_pass = 0;
   for (const ChartInfo& ch : charts_) rep_.charts_after_first_pass += ch.alive && !ch.faces.empty();
   rep_.distortion_after_first_pass = global_distortion();
   if (second) {
+    const auto t1 = Clock::now();
     main_.max_merges = opt_.max_merges;
     const size_t before = main_.rep.accepted;
     const int steps = std::max(1, opt_.second_pass_steps);
@@ -477,6 +487,7 @@ MergeReport Engine::run(const Progress& progress) {
       drain(main_, progress, 0.6 + 0.4 * i / steps, 0.4 / steps);
     }
     rep_.accepted_second_pass = main_.rep.accepted - before;
+    rep_.second_pass_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
   }
   if (progress) progress(1.0);
   add_counters(rep_, main_.rep);

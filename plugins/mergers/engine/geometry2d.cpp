@@ -9,6 +9,27 @@ namespace texdefrag::merge {
 
 using Eigen::Vector2d;
 
+namespace {
+/// Item ids per cell of a uniform grid in compressed rows (one allocation pair per grid, not one
+/// vector per cell): items of cell c are items[start[c], start[c + 1]), in increasing id order.
+struct CsrGrid {
+  std::vector<int> start, items;
+  /// cells(i, visit) calls visit(cell) for every cell item i covers.
+  template <class CellsFn>
+  void build(size_t num_cells, size_t num_items, CellsFn&& cells) {
+    start.assign(num_cells + 1, 0);
+    for (size_t i = 0; i < num_items; ++i) cells(i, [&](size_t c) { ++start[c + 1]; });
+    for (size_t c = 0; c < num_cells; ++c) start[c + 1] += start[c];
+    items.resize(static_cast<size_t>(start.back()));
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (size_t i = 0; i < num_items; ++i)
+      cells(i, [&](size_t c) { items[static_cast<size_t>(fill[c]++)] = static_cast<int>(i); });
+  }
+  const int* begin(size_t c) const { return items.data() + start[c]; }
+  const int* end(size_t c) const { return items.data() + start[c + 1]; }
+};
+}  // namespace
+
 Rigid2 fit_rigid(const std::vector<Vector2d>& p, const std::vector<Vector2d>& q) {
   Rigid2 m;
   if (p.empty() || p.size() != q.size()) return m;
@@ -75,7 +96,6 @@ bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>&
   const double max_cells = 4.0 * static_cast<double>(moved.size()) + 16;
   while ((ext.x() / cell + 1) * (ext.y() / cell + 1) > max_cells) cell *= 1.5;
   const int nx = static_cast<int>(ext.x() / cell) + 1, ny = static_cast<int>(ext.y() / cell) + 1;
-  std::vector<std::vector<int>> grid(static_cast<size_t>(nx) * static_cast<size_t>(ny));
   auto cell_range = [&](const Segment& s, int& x0, int& x1, int& y0, int& y1) {
     const Vector2d a = s.a.cwiseMin(s.b), b = s.a.cwiseMax(s.b);
     x0 = std::max(0, static_cast<int>(std::floor((a.x() - lo.x()) / cell)));
@@ -83,13 +103,13 @@ bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>&
     x1 = std::min(nx - 1, static_cast<int>(std::floor((b.x() - lo.x()) / cell)));
     y1 = std::min(ny - 1, static_cast<int>(std::floor((b.y() - lo.y()) / cell)));
   };
-  for (size_t i = 0; i < moved.size(); ++i) {
+  CsrGrid grid;
+  grid.build(static_cast<size_t>(nx) * static_cast<size_t>(ny), moved.size(), [&](size_t i, auto&& visit) {
     int x0, x1, y0, y1;
     cell_range(moved[i], x0, x1, y0, y1);
     for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x)
-        grid[static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x)].push_back(static_cast<int>(i));
-  }
+      for (int x = x0; x <= x1; ++x) visit(static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x));
+  });
   auto test = [&](const Segment& s) {
     const Vector2d a = s.a.cwiseMin(s.b), b = s.a.cwiseMax(s.b);
     if (b.x() < lo.x() || b.y() < lo.y() || a.x() > hi.x() || a.y() > hi.y()) return false;
@@ -97,7 +117,9 @@ bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>&
     cell_range(s, x0, x1, y0, y1);
     for (int y = y0; y <= y1; ++y)
       for (int x = x0; x <= x1; ++x)
-        for (int i : grid[static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x)]) {
+        for (const int* it = grid.begin(static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x));
+             it != grid.end(static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x)); ++it) {
+          const int i = *it;
           const Segment& m = moved[static_cast<size_t>(i)];
           if (skip_pair(s, m)) continue;
           if (segments_cross(s.a, s.b, m.a, m.b)) return true;
@@ -184,7 +206,6 @@ bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2
   const double max_cells = 4.0 * static_cast<double>(moved.size()) + 16;
   while ((ext.x() / cell + 1) * (ext.y() / cell + 1) > max_cells) cell *= 1.5;
   const int nx = static_cast<int>(ext.x() / cell) + 1, ny = static_cast<int>(ext.y() / cell) + 1;
-  std::vector<std::vector<int>> grid(static_cast<size_t>(nx) * static_cast<size_t>(ny));
   auto range = [&](const Tri2& t, int& x0, int& x1, int& y0, int& y1) {
     Vector2d a = t.p[0], b = t.p[0];
     for (int k = 1; k < 3; ++k) {
@@ -198,20 +219,22 @@ bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2
     y1 = std::min(ny - 1, static_cast<int>(std::floor((b.y() - lo.y()) / cell)));
     return true;
   };
-  for (size_t i = 0; i < moved.size(); ++i) {
+  CsrGrid grid;
+  grid.build(static_cast<size_t>(nx) * static_cast<size_t>(ny), moved.size(), [&](size_t i, auto&& visit) {
     int x0, x1, y0, y1;
-    if (!range(moved[i], x0, x1, y0, y1)) continue;
+    if (!range(moved[i], x0, x1, y0, y1)) return;
     for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x)
-        grid[static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x)].push_back(static_cast<int>(i));
-  }
+      for (int x = x0; x <= x1; ++x) visit(static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x));
+  });
   std::vector<int> seen(moved.size(), -1);
   auto test = [&](const Tri2& t, int self, int stamp) {
     int x0, x1, y0, y1;
     if (!range(t, x0, x1, y0, y1)) return false;
     for (int y = y0; y <= y1; ++y)
       for (int x = x0; x <= x1; ++x)
-        for (int i : grid[static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x)]) {
+        for (const int* it = grid.begin(static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x));
+             it != grid.end(static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x)); ++it) {
+          const int i = *it;
           if (i == self || seen[static_cast<size_t>(i)] == stamp) continue;
           seen[static_cast<size_t>(i)] = stamp;
           if (self >= 0 && static_cast<size_t>(self) < rigid && static_cast<size_t>(i) < rigid) continue;

@@ -98,6 +98,8 @@ json MergeReport::to_json() const {
   j["distortion_after_first_pass"] = distortion_after_first_pass;
   j["first_pass_budget_shares"] = first_pass_budget_shares;
   j["first_pass_lanes"] = first_pass_lanes;
+  j["first_pass_seconds"] = first_pass_seconds;
+  j["second_pass_seconds"] = second_pass_seconds;
   json rej = json::object();
   size_t total = 0;
   for (const auto& [k, v] : rejected) {

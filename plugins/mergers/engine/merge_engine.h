@@ -82,6 +82,8 @@ struct MergeReport {
   /// without them it ended above global_bound.
   bool first_pass_budget_shares = false;
   size_t first_pass_lanes = 0;  ///< regions with candidate pairs: the first pass's independent queues
+  double first_pass_seconds = 0;   ///< wall time of the first pass (its lanes run side by side)
+  double second_pass_seconds = 0;  ///< wall time of the second pass (one queue)
   std::map<std::string, size_t> rejected;  ///< by reason
   double distortion_in = 0;           ///< global ARAP distortion of the atlas given to the engine
   double distortion_out = 0;          ///< after merging (recomputed from scratch)
