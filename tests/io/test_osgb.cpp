@@ -14,11 +14,15 @@
 #include <osg/MatrixTransform>
 #include <osg/PagedLOD>
 #include <osg/Texture2D>
+#include <osg/NodeVisitor>
+#include <osgDB/ReadFile>
 #include <osgDB/WriteFile>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -356,4 +360,109 @@ TEST(Production, AFailingTileIsRecordedAndTheOthersGoOn) {
     EXPECT_EQ(entry.path().filename().string().find(".texdefrag-staging"), std::string::npos) << entry.path();
   // The inputs are untouched: still the garbage tile and no output in the production.
   EXPECT_FALSE(fs::exists(root + "/Tile_B/Tile_B.report.json"));
+}
+
+namespace {
+
+/// A roof of 8 x 8 quads, each its own UV chart (4 vertices of its own, as photogrammetry writes
+/// them): x in [0, 2] with the ridge at x = 1 (z = 0.3 * min(x, 2 - x)), y in [0, 4]. `sx` scales
+/// the stored x coordinates. UV cells of 1/8 of the page, the chart 80% of its cell.
+osg::ref_ptr<osg::Geometry> roof_geometry(float sx) {
+  osg::ref_ptr<osg::Geometry> g = new osg::Geometry;
+  osg::ref_ptr<osg::Vec3Array> v = new osg::Vec3Array;
+  osg::ref_ptr<osg::Vec2Array> tc = new osg::Vec2Array;
+  osg::ref_ptr<osg::DrawElementsUShort> tri = new osg::DrawElementsUShort(GL_TRIANGLES);
+  for (int i = 0; i < 8; ++i)
+    for (int j = 0; j < 8; ++j) {
+      const auto base = static_cast<unsigned short>(v->size());
+      for (int c = 0; c < 4; ++c) {
+        const int di = c == 1 || c == 2, dj = c >= 2;
+        const float x = 0.25f * static_cast<float>(i + di), y = 0.5f * static_cast<float>(j + dj);
+        v->push_back(osg::Vec3(sx * x, y, 0.3f * std::min(x, 2.0f - x)));
+        tc->push_back(osg::Vec2((static_cast<float>(i) + 0.1f + 0.8f * static_cast<float>(di)) / 8.0f,
+                                (static_cast<float>(j) + 0.1f + 0.8f * static_cast<float>(dj)) / 8.0f));
+      }
+      for (int k : {0, 1, 2, 0, 2, 3}) tri->push_back(static_cast<unsigned short>(base + k));
+    }
+  g->setVertexArray(v.get());
+  g->setTexCoordArray(0, tc.get(), osg::Array::BIND_PER_VERTEX);
+  g->addPrimitiveSet(tri.get());
+  g->setStateSet(textured(make_texture("roof.png", 1).get()).get());
+  return g;
+}
+
+/// Writes the roof: its x scaled by `stored_sx` in the file, under a MatrixTransform `m` (none when
+/// identity).
+std::string write_roof(const std::string& path, float stored_sx, const osg::Matrix& m) {
+  osg::ref_ptr<osg::Geode> geode = new osg::Geode;
+  geode->addDrawable(roof_geometry(stored_sx).get());
+  osg::ref_ptr<osg::Node> root = geode;
+  if (!m.isIdentity()) {
+    osg::ref_ptr<osg::MatrixTransform> xf = new osg::MatrixTransform(m);
+    xf->addChild(geode.get());
+    root = xf;
+  }
+  osg::ref_ptr<osgDB::Options> opt = new osgDB::Options("WriteImageHint=IncludeData");
+  EXPECT_TRUE(osgDB::writeNodeFile(*root, path, opt.get()));
+  return path;
+}
+
+/// The stored vertex array of the first geometry of a file, as osgDB reads it.
+std::vector<osg::Vec3> stored_positions(const std::string& path) {
+  struct Find : osg::NodeVisitor {
+    Find() : osg::NodeVisitor(TRAVERSE_ALL_CHILDREN) {}
+    void apply(osg::Drawable& d) override {
+      if (!geometry) geometry = d.asGeometry();
+    }
+    osg::Geometry* geometry = nullptr;
+  } find;
+  osg::ref_ptr<osg::Node> n = osgDB::readRefNodeFile(path);
+  if (!n) return {};
+  n->accept(find);
+  const auto* v = find.geometry ? dynamic_cast<const osg::Vec3Array*>(find.geometry->getVertexArray()) : nullptr;
+  return v ? std::vector<osg::Vec3>(v->begin(), v->end()) : std::vector<osg::Vec3>{};
+}
+
+}  // namespace
+
+// A MatrixTransform scaling x by 2 above a mesh: texdefrag measures the mesh as the user sees it
+// (io/measure_transform.h), so every stage gives what it gives on the same mesh stored pre-scaled,
+// while the file written keeps the stored (unscaled) positions bit for bit. A rigid transform
+// leaves the positions read as stored.
+TEST(Osgb, NodeTransformsAreAppliedForMeasuringOnly) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  const std::string scaled = write_roof(dir + "/scaled.osgb", 1, osg::Matrix::scale(2, 1, 1));
+  const std::string prescaled = write_roof(dir + "/prescaled.osgb", 2, osg::Matrix::identity());
+  const std::string plain = write_roof(dir + "/plain.osgb", 1, osg::Matrix::identity());
+  const std::string rigid = write_roof(dir + "/rigid.osgb", 1,
+                                       osg::Matrix::rotate(0.7, osg::Vec3(0.3, 0.4, 0.5)) * osg::Matrix::translate(5e5, 4e6, 30));
+
+  const LoadedModel a = OsgbFormat().read(scaled), b = OsgbFormat().read(prescaled);
+  ASSERT_EQ(a.mesh.positions.size(), 256u);
+  EXPECT_EQ(a.positions_stretched, 256u);
+  for (size_t i = 0; i < a.mesh.positions.size(); ++i) EXPECT_EQ(a.mesh.positions[i], b.mesh.positions[i]) << i;
+  const LoadedModel r = OsgbFormat().read(rigid), p = OsgbFormat().read(plain);
+  EXPECT_EQ(r.positions_stretched, 0u);
+  for (size_t i = 0; i < r.mesh.positions.size(); ++i) EXPECT_EQ(r.mesh.positions[i], p.mesh.positions[i]) << i;
+
+  const json ra = run(scaled, dir + "/out_scaled", "best.json");
+  const json rb = run(prescaled, dir + "/out_prescaled", "best.json");
+  const json rp = run(plain, dir + "/out_plain", "best.json");
+  EXPECT_EQ(ra["stages"]["read"]["positions_stretched"], 256);
+  const auto& da = ra["stages"]["detectors.region_growing"];
+  EXPECT_EQ(da["angle_rejections"], rb["stages"]["detectors.region_growing"]["angle_rejections"]);
+  // The measure is sensitive to the scale: unscaled, the ridge is 33 degrees (split by the
+  // detector's 25-degree threshold), scaled 2x in x it is 17 degrees.
+  EXPECT_NE(da["angle_rejections"], rp["stages"]["detectors.region_growing"]["angle_rejections"]);
+  for (const char* k : {"charts_out", "distortion_arap"})
+    EXPECT_EQ(ra["stages"]["mergers.arap"][k], rb["stages"]["mergers.arap"][k]) << k;
+  EXPECT_EQ(ra["output_stats"]["megapixels"], rb["output_stats"]["megapixels"]);
+  const LoadedModel oa = OsgbFormat().read(dir + "/out_scaled/scaled.osgb");
+  const LoadedModel ob = OsgbFormat().read(dir + "/out_prescaled/prescaled.osgb");
+  EXPECT_EQ(oa.mesh.texcoords, ob.mesh.texcoords);
+  // Written: the stored, unscaled positions, bit for bit.
+  const std::vector<osg::Vec3> in_stored = stored_positions(scaled), out_stored = stored_positions(dir + "/out_scaled/scaled.osgb");
+  ASSERT_EQ(in_stored.size(), 256u);
+  EXPECT_EQ(std::memcmp(in_stored.data(), out_stored.data(), in_stored.size() * sizeof(osg::Vec3)), 0);
+  EXPECT_EQ(in_stored.size(), out_stored.size());
 }

@@ -1,12 +1,14 @@
 // OSGB reader (see texdefrag/io/osgb.h and docs/io.md "OSGB").
 #include "osgb_source.h"
 #include "texdefrag/io/jpeg_quality.h"
+#include "texdefrag/io/measure_transform.h"
 #include "texdefrag/io/osgb.h"
 
 #include <osg/NodeVisitor>
 #include <osg/PagedLOD>
 #include <osg/ProxyNode>
 #include <osg/StateSet>
+#include <osg/Transform>
 #include <osgDB/FileNameUtils>
 #include <osgDB/ReadFile>
 #include <osgDB/Registry>
@@ -47,6 +49,7 @@ class Collector : public osg::NodeVisitor {
   struct Found {
     osg::Geometry* geometry;
     osg::Texture* texture;
+    osg::Matrixd world;  ///< local to world on the first path reaching the geometry (a shared one: that path's)
   };
   std::vector<Found> found;
   std::vector<std::pair<std::string, std::string>> children;  ///< (database path, file name)
@@ -69,7 +72,7 @@ class Collector : public osg::NodeVisitor {
   void apply(osg::Drawable& d) override {
     push(d.getStateSet());
     if (osg::Geometry* g = d.asGeometry())
-      if (seen_.insert(g).second) found.push_back({g, texture_in_force()});
+      if (seen_.insert(g).second) found.push_back({g, texture_in_force(), osg::computeLocalToWorld(getNodePath())});
     pop(d.getStateSet());
   }
 
@@ -378,6 +381,11 @@ LoadedModel OsgbFormat::read(const std::string& path) const {
     if (!va) continue;  // nothing drawn
     const int position_offset = static_cast<int>(m.mesh.positions.size());
     append_positions(path, va, m.mesh.positions);
+    // Measured as the user sees them (io/measure_transform.h); written back from the stored array.
+    Mat3 linear;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) linear(i, j) = f.world(j, i);  // OSG multiplies row vectors: v' = v M
+    m.positions_stretched += apply_stretch(m.mesh.positions, static_cast<size_t>(position_offset), stretch_part(linear));
     const int texcoord_offset = static_cast<int>(m.mesh.texcoords.size());
     if (f.texture) {
       osg::Image* image = f.texture->getImage(0);

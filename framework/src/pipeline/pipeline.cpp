@@ -343,6 +343,7 @@ void read_step(json& report, const ModelFormat& format, const RunOptions& option
     progress("read", 0);
     model = options.model ? *options.model : format.read(options.input);
     node["format"] = format.name();
+    if (model.positions_stretched) node["positions_stretched"] = model.positions_stretched;
     if (!model.missing_files.empty()) {
       if (!options.allow_missing_children)
         throw FormatError(model.missing_files.front() +

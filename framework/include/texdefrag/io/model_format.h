@@ -74,6 +74,9 @@ struct LoadedModel {
   /// "CHILD: no such file (child 'NAME' of FILE)". The reader does not throw for them: the caller
   /// decides (the pipeline refuses them unless RunOptions::allow_missing_children).
   std::vector<std::string> missing_files;
+  /// Positions multiplied by their node transform's stretch for measuring (io/measure_transform.h;
+  /// the writer writes the stored positions); 0 when every transform above a mesh is rigid.
+  size_t positions_stretched = 0;
   /// Per-format state for write(); may be null for formats that need none.
   std::shared_ptr<ModelSource> source;
 
