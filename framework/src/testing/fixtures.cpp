@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <string>
+#include <unistd.h>
 
 namespace fs = std::filesystem;
 
@@ -42,7 +44,11 @@ std::string temp_dir(const std::string& suffix) {
   std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "test";
   for (char& c : name)
     if (c == '/') c = '_';
-  const fs::path p = fs::temp_directory_path() / "texdefrag-tests" / (name + suffix);
+  // note: one folder per test process (texdefrag-tests-<pid>): several builds on one machine run
+  // the same tests at once (engineers' worktrees, CI), and a shared folder per test name let one
+  // run remove another's files mid-test (Pipeline.EveryConfigRunsEndToEnd lost a report that way).
+  static const fs::path root = fs::temp_directory_path() / ("texdefrag-tests-" + std::to_string(::getpid()));
+  const fs::path p = root / (name + suffix);
   fs::remove_all(p);
   fs::create_directories(p);
   return p.string();

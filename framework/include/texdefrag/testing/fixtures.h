@@ -18,7 +18,8 @@ std::string shared_data(const std::string& relative);
 /// `max_faces` filters by the documented sizes (0 = all).
 std::vector<std::string> real_models(size_t max_faces = 0);
 
-/// A new empty folder under the build tree's test-tmp/, named after the running test.
+/// A new empty folder named after the running test, under <system temp>/texdefrag-tests-<pid>/ (one
+/// folder per test process, so runs of the same tests from several builds never share one).
 std::string temp_dir(const std::string& suffix = "");
 
 /// Writes a solid-colour or gradient RGB PNG of the given size (for hand-built meshes' pages).
