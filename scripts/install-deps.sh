@@ -7,7 +7,8 @@ PKGS=(
   libopenmesh-dev        # mesh adjacency (framework)
   libeigen3-dev          # linear algebra, sparse solvers (mergers, detectors)
   libceres-dev           # ARAP optimiser variant (mergers.arap)
-  libopenimageio-dev     # texture pages: JPEG/PNG/TIFF read, PNG/JPEG write
+  libpng-dev libjpeg62-turbo-dev  # texture pages: PNG and JPEG read and write, linked directly
+  libopenimageio-dev     # pages in other formats (TIFF, BMP, TGA, EXR...), in a module loaded on use
   nlohmann-json3-dev     # configs and run reports
   libcli11-dev           # command line
   libgtest-dev libgmock-dev googletest  # unit tests

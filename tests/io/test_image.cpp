@@ -1,5 +1,6 @@
 // Image IO: PNG round trip exact, JPEG close, header-only size, 16-bit/TIFF input converted to
 // 8 bits, atomic writes, and errors that name the file.
+#include "image_test_util.h"
 #include "io_test_util.h"
 
 #include "texdefrag/io/image.h"
@@ -8,7 +9,12 @@
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <cstdlib>
 #include <functional>
 #include <filesystem>
@@ -222,4 +228,249 @@ TEST(Image, RealJpegPageSizeMatchesPixels) {
   EXPECT_EQ(img.height, h);
   EXPECT_EQ(img.channels, 3);
   EXPECT_EQ(img.pixels.size(), static_cast<size_t>(w) * static_cast<size_t>(h) * 3);
+}
+
+// ---- PNG and JPEG codecs (libpng, libjpeg-turbo) against OpenImageIO 2.4, the reader before ----
+
+namespace {
+
+namespace it = texdefrag::image_test;
+
+void expect_same_image(const Image& got, const Image& want, const std::string& what) {
+  EXPECT_EQ(got.width, want.width) << what;
+  EXPECT_EQ(got.height, want.height) << what;
+  EXPECT_EQ(got.channels, want.channels) << what;
+  EXPECT_TRUE(got.pixels == want.pixels) << what << ": pixels differ";
+}
+
+/// Runs fn with stderr sent to a temporary file; returns what was printed.
+std::string stderr_of(const std::function<void()>& fn) {
+  std::fflush(stderr);
+  std::FILE* tmp = std::tmpfile();
+  const int saved = ::dup(STDERR_FILENO);
+  ::dup2(::fileno(tmp), STDERR_FILENO);
+  try {
+    fn();
+  } catch (...) {
+  }
+  std::fflush(stderr);
+  ::dup2(saved, STDERR_FILENO);
+  ::close(saved);
+  std::string s;
+  std::rewind(tmp);
+  char buf[256];
+  size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, tmp)) > 0) s.append(buf, n);
+  std::fclose(tmp);
+  return s;
+}
+
+std::vector<uint8_t> file_bytes(const std::string& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+void write_bytes(const std::string& p, const std::vector<uint8_t>& b, size_t n) {
+  std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(n));
+}
+
+}  // namespace
+
+TEST(ImageCodec, PngOfEveryColourTypeAndDepthReadsAsOpenImageIO) {
+  const std::string dir = tt::temp_dir();
+  struct Kind {
+    int type, samples;
+    std::vector<int> depths;
+  };
+  const std::vector<Kind> kinds = {{PNG_COLOR_TYPE_GRAY, 1, {1, 2, 4, 8, 16}},
+                                   {PNG_COLOR_TYPE_GRAY_ALPHA, 2, {8, 16}},
+                                   {PNG_COLOR_TYPE_RGB, 3, {8, 16}},
+                                   {PNG_COLOR_TYPE_RGB_ALPHA, 4, {8, 16}},
+                                   {PNG_COLOR_TYPE_PALETTE, 1, {1, 2, 4, 8}}};
+  int n = 0;
+  for (const Kind& k : kinds)
+    for (int depth : k.depths)
+      for (int interlaced = 0; interlaced < 2; ++interlaced)
+        for (int trns = 0; trns < 2; ++trns) {
+          if (trns && (k.type & PNG_COLOR_MASK_ALPHA)) continue;
+          it::RawPng p;
+          p.width = 13;
+          p.height = 7;
+          p.colour_type = k.type;
+          p.bit_depth = depth;
+          p.interlaced = interlaced;
+          const size_t stride = (static_cast<size_t>(p.width) * k.samples * depth + 7) / 8;
+          p.rows = it::noise(stride * p.height, 77u + n);
+          if (k.type == PNG_COLOR_TYPE_PALETTE) {
+            p.palette = it::noise(3u << depth, 5u + n);
+            if (trns) p.trns = it::noise(std::max(1, (1 << depth) / 2), 9u + n);
+          } else if (trns) {
+            // the key: the first pixel's value, so at least one texel turns transparent
+            const int bytes = depth == 16 ? 2 : 1;
+            for (int c = 0; c < k.samples; ++c)
+              if (depth == 16)
+                p.trns.insert(p.trns.end(), {p.rows[c * 2], p.rows[c * 2 + 1]});
+              else
+                p.trns.insert(p.trns.end(), {0, static_cast<uint8_t>(depth == 8 ? p.rows[c * bytes] : p.rows[0] >> (8 - depth))});
+          }
+          const std::string path = dir + "/t" + std::to_string(k.type) + "_" + std::to_string(depth) + "_" +
+                                   std::to_string(interlaced) + std::to_string(trns) + ".png";
+          it::write_raw_png(path, p);
+          const Image want = it::oiio_read(path);
+          expect_same_image(read_image(path), want, path);
+          int w = 0, h = 0;
+          read_image_size(path, w, h);
+          EXPECT_EQ(w, 13);
+          EXPECT_EQ(h, 7);
+          const std::vector<uint8_t> bytes = file_bytes(path);
+          expect_same_image(decode_image(bytes.data(), bytes.size(), path), want, path + " (memory)");
+          ++n;
+        }
+  EXPECT_EQ(n, 52);
+}
+
+TEST(ImageCodec, SixteenBitPngRoundsAsOpenImageIOForEveryValue) {
+  const std::string dir = tt::temp_dir();
+  it::RawPng p;
+  p.width = p.height = 256;
+  p.bit_depth = 16;
+  for (int v = 0; v < 65536; ++v) p.rows.insert(p.rows.end(), {static_cast<uint8_t>(v >> 8), static_cast<uint8_t>(v & 255)});
+  const std::string path = dir + "/ramp16.png";
+  it::write_raw_png(path, p);
+  expect_same_image(read_image(path), it::oiio_read(path), path);
+}
+
+TEST(ImageCodec, JpegVariantsReadAsOpenImageIO) {
+  const std::string dir = tt::temp_dir();
+  struct Variant {
+    const char* name;
+    int components;
+    J_COLOR_SPACE in, space;
+    int h, v;
+    bool progressive;
+    int restart;
+  };
+  const std::vector<Variant> variants = {
+      {"grey", 1, JCS_GRAYSCALE, JCS_GRAYSCALE, 1, 1, false, 0},
+      {"grey_progressive", 1, JCS_GRAYSCALE, JCS_GRAYSCALE, 1, 1, true, 0},
+      {"ycc444", 3, JCS_RGB, JCS_YCbCr, 1, 1, false, 0},
+      {"ycc422", 3, JCS_RGB, JCS_YCbCr, 2, 1, false, 0},
+      {"ycc420", 3, JCS_RGB, JCS_YCbCr, 2, 2, false, 0},
+      {"ycc440", 3, JCS_RGB, JCS_YCbCr, 1, 2, false, 0},
+      {"ycc411", 3, JCS_RGB, JCS_YCbCr, 4, 1, false, 0},
+      {"ycc420_progressive", 3, JCS_RGB, JCS_YCbCr, 2, 2, true, 0},
+      {"ycc420_restart", 3, JCS_RGB, JCS_YCbCr, 2, 2, false, 1},
+      {"rgb", 3, JCS_RGB, JCS_RGB, 1, 1, false, 0},
+      {"cmyk", 4, JCS_CMYK, JCS_CMYK, 1, 1, false, 0},
+      {"ycck", 4, JCS_CMYK, JCS_YCCK, 2, 2, false, 0},
+  };
+  for (const Variant& v : variants)
+    for (const auto& [w, h] : std::vector<std::pair<int, int>>{{37, 23}, {1, 1}, {64, 48}}) {
+      it::RawJpeg j;
+      j.width = w;
+      j.height = h;
+      j.components = v.components;
+      j.in_space = v.in;
+      j.space = v.space;
+      j.h_samp = v.h;
+      j.v_samp = v.v;
+      j.progressive = v.progressive;
+      j.restart_rows = v.restart;
+      const Image smooth = smooth_image(std::max(w, 2), std::max(h, 2), v.components);
+      const std::vector<uint8_t> grain = it::noise(smooth.pixels.size(), 3u);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+          for (int c = 0; c < v.components; ++c)
+            j.pixels.push_back(static_cast<uint8_t>(smooth.at(x, y)[c] + (grain[j.pixels.size()] & 31)));
+      const std::string path = dir + "/" + v.name + "_" + std::to_string(w) + ".jpg";
+      it::write_raw_jpeg(path, j);
+      const Image want = it::oiio_read(path);
+      expect_same_image(read_image(path), want, path);
+      const std::vector<uint8_t> bytes = file_bytes(path);
+      expect_same_image(decode_image(bytes.data(), bytes.size(), path), want, path + " (memory)");
+    }
+}
+
+TEST(ImageCodec, JpegExifOrientationIsNotAppliedAsBefore) {
+  // An APP1 EXIF block with Orientation = 6 (rotate 90 degrees) spliced in after SOI.
+  const std::string dir = tt::temp_dir();
+  const std::string plain = dir + "/plain.jpg", rotated = dir + "/rotated.jpg";
+  write_image(plain, smooth_image(40, 24, 3), ImageFormat::Jpeg, 90);
+  std::vector<uint8_t> b = file_bytes(plain);
+  const std::vector<uint8_t> app1 = {0xFF, 0xE1, 0x00, 0x22, 'E', 'x', 'i', 'f', 0, 0, 'I', 'I', 42, 0, 8, 0, 0, 0,
+                                     1,    0,    0x12, 0x01, 3,   0,   1,   0,   0, 0, 6,   0,   0,  0, 0, 0, 0, 0};
+  b.insert(b.begin() + 2, app1.begin(), app1.end());
+  write_bytes(rotated, b, b.size());
+  const Image got = read_image(rotated);
+  EXPECT_EQ(got.width, 40);
+  EXPECT_EQ(got.height, 24);
+  expect_same_image(got, it::oiio_read(rotated), rotated);
+  expect_same_image(got, read_image(plain), rotated + " vs the file without EXIF");
+}
+
+TEST(ImageCodec, JpegWritesTheBytesOpenImageIOWrote) {
+  const std::string dir = tt::temp_dir();
+  const std::pair<JpegSubsampling, const char*> subs[] = {
+      {JpegSubsampling::S444, "4:4:4"}, {JpegSubsampling::S422, "4:2:2"}, {JpegSubsampling::S420, "4:2:0"}};
+  for (int ch = 1; ch <= 4; ++ch)
+    for (int q : {1, 50, 90, 95, 100})
+      for (const auto& [s, name] : subs) {
+        Image img = smooth_image(37, 29, ch);
+        const std::vector<uint8_t> grain = it::noise(img.pixels.size(), 11u + q);
+        for (size_t i = 0; i < img.pixels.size(); ++i) img.pixels[i] = static_cast<uint8_t>(img.pixels[i] + (grain[i] & 15));
+        const std::string ours = dir + "/ours.jpg", theirs = dir + "/theirs.jpg";
+        write_image(ours, img, ImageFormat::Jpeg, q, s);
+        it::oiio_write(theirs, img, true, q, name);
+        EXPECT_TRUE(file_bytes(ours) == file_bytes(theirs)) << ch << " channels, quality " << q << ", " << name;
+      }
+}
+
+TEST(ImageCodec, PngWritesThePixelsOpenImageIOWrote) {
+  const std::string dir = tt::temp_dir();
+  for (int ch = 1; ch <= 4; ++ch) {
+    Image img = smooth_image(300, 200, ch);
+    const std::vector<uint8_t> grain = it::noise(img.pixels.size(), 21u + ch);
+    for (size_t i = 0; i < img.pixels.size(); ++i) img.pixels[i] = static_cast<uint8_t>(img.pixels[i] + (grain[i] & 7));
+    const std::string ours = dir + "/ours.png", theirs = dir + "/theirs.png";
+    write_image(ours, img, ImageFormat::Png);
+    it::oiio_write(theirs, img, false, 0, "");
+    expect_same_image(it::oiio_read(ours), it::oiio_read(theirs), std::to_string(ch) + " channels");
+    const double ratio = static_cast<double>(fs::file_size(ours)) / static_cast<double>(fs::file_size(theirs));
+    RecordProperty("png_size_ratio_" + std::to_string(ch), std::to_string(ratio));
+    EXPECT_LT(ratio, 1.05) << ch << " channels: " << fs::file_size(ours) << " vs " << fs::file_size(theirs);
+  }
+}
+
+TEST(ImageCodec, TruncatedOrCorruptFilesAreErrorsNamingTheFileAndPrintNothing) {
+  const std::string dir = tt::temp_dir();
+  const Image img = noisy_image(64, 48, 3);
+  for (const char* ext : {".png", ".jpg"}) {
+    const std::string whole = dir + "/whole" + ext;
+    write_image(whole, img, ext == std::string(".png") ? ImageFormat::Png : ImageFormat::Jpeg, 90);
+    const std::vector<uint8_t> b = file_bytes(whole);
+    for (size_t cut : {size_t{3}, size_t{9}, size_t{30}, size_t{120}, b.size() / 2, b.size() - 20, b.size() - 2}) {
+      const std::string p = dir + "/cut" + std::to_string(cut) + ext;
+      write_bytes(p, b, cut);
+      std::string msg;
+      const std::string printed = stderr_of([&] { msg = image_error([&] { read_image(p); }); });
+      EXPECT_EQ(msg.rfind(p + ": ", 0), 0u) << msg;
+      EXPECT_EQ(printed, "") << p;
+      if (cut <= 30) {
+        const std::string printed2 = stderr_of([&] {
+          int w, h;
+          msg = image_error([&] { read_image_size(p, w, h); });
+        });
+        EXPECT_EQ(msg.rfind(p + ": ", 0), 0u) << msg;
+        EXPECT_EQ(printed2, "") << p;
+      }
+      EXPECT_THROW(decode_image(b.data(), cut, "mem"), ImageError) << cut;
+    }
+  }
+  // A flipped byte in the PNG's pixel data breaks its CRC: an error, not other pixels.
+  const std::string whole = dir + "/whole.png";
+  std::vector<uint8_t> b = file_bytes(whole);
+  b[b.size() / 2] ^= 0x55;
+  const std::string p = dir + "/flipped.png";
+  write_bytes(p, b, b.size());
+  EXPECT_EQ(image_error([&] { read_image(p); }).rfind(p + ": ", 0), 0u);
 }

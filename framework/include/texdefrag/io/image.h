@@ -1,6 +1,8 @@
-// Texture page images through OpenImageIO: 8-bit, 1-4 channels, rows top to bottom.
+// Texture page images: 8-bit, 1-4 channels, rows top to bottom. PNG and JPEG through libpng and
+// libjpeg-turbo; other formats through OpenImageIO, loaded only when such a file is met (docs/io.md).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -21,11 +23,21 @@ struct Image {
   bool empty() const { return pixels.empty(); }
 };
 
-/// Reads an image (JPEG, PNG, TIFF, anything OpenImageIO reads). Deeper formats are converted to
-/// 8 bits. Throws ImageError naming the file.
-/// Channels beyond the 4th are not read. Alpha is returned as stored (not premultiplied).
-/// The first subimage / MIP level is read; EXIF orientation is not applied.
+/// Reads an image. The format comes from the first bytes, not the name: PNG (every colour type and
+/// bit depth: palette expanded to RGB, tRNS to alpha, 1-4 bit grey scaled, 16 bits rounded to 8)
+/// and JPEG (baseline or progressive; grey gives 1 channel, colour 3, CMYK/YCCK converted to RGB)
+/// are decoded by libpng/libjpeg-turbo; anything else (TIFF, BMP, TGA, OpenEXR, ...) by OpenImageIO's
+/// module (<root>/lib/texdefrag/texdefrag_image_oiio.so), loaded on first use: deeper formats are
+/// converted to 8 bits, channels beyond the 4th are not read, the first subimage / MIP level is read.
+/// The pixels are those OpenImageIO 2.4 gave for every format. Alpha is returned as stored (not
+/// premultiplied); colour profiles, gamma and EXIF orientation are not applied.
+/// Throws ImageError starting with the path: missing file, corrupt or truncated data, a format
+/// without a reader; no decoder message is printed.
 Image read_image(const std::string& path);
+
+/// Decodes a PNG or JPEG held in memory as read_image does (anything else: ImageError). `name` starts
+/// every error message. header_only: width, height and channels only, pixels left empty.
+Image decode_image(const uint8_t* data, size_t size, const std::string& name, bool header_only = false);
 
 /// Reads only the header: width and height. Throws ImageError naming the file.
 void read_image_size(const std::string& path, int& width, int& height);
@@ -36,7 +48,7 @@ enum class ImageFormat { Png, Jpeg };
 /// colour sample; S420 (libjpeg's default) halves both directions.
 enum class JpegSubsampling { S444, S422, S420 };
 
-/// "4:4:4", "4:2:2", "4:2:0" (the names of OpenImageIO's "jpeg:subsampling" attribute).
+/// "4:4:4", "4:2:2", "4:2:0".
 const char* jpeg_subsampling_name(JpegSubsampling s);
 
 /// Writes an image atomically (temporary file, then rename). jpeg_quality in [1, 100].
@@ -45,6 +57,8 @@ const char* jpeg_subsampling_name(JpegSubsampling s);
 ///        3 channels: the alpha of a 2- or 4-channel image is left out. PNG round-trips exactly.
 /// subsampling: chroma subsampling of a 3-channel JPEG (ignored for PNG and grey JPEG); the default
 ///        is libjpeg's own (4:2:0); the pipeline's pages pass output.jpeg_subsampling (4:4:4).
+/// Encoding: PNG with zlib level 6; JPEG baseline with libjpeg's standard tables scaled to the
+/// quality and Huffman tables, byte for byte what OpenImageIO 2.4 wrote (JFIF and an empty EXIF block).
 /// Throws ImageError naming `path`; on failure no file and no temporary is left.
 void write_image(const std::string& path, const Image& image, ImageFormat format, int jpeg_quality = 95,
                  JpegSubsampling subsampling = JpegSubsampling::S420);
