@@ -770,25 +770,7 @@ GltfModel read_gltf(const std::vector<GltfInput>& inputs, const GltfReadOptions&
 Image read_gltf_page(const GltfModel& model, int page) {
   const GltfPageSource& s = model.page_source.at(static_cast<size_t>(page));
   if (!s.image_file.empty()) return read_image(s.image_file);
-  // note: OpenImageIO picks its reader by file name, so embedded bytes go through a temporary file.
-  static std::atomic<unsigned> counter{0};
-  const fs::path tmp = fs::temp_directory_path() /
-                       ("texdefrag-gltf-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) +
-                        (s.mime == "image/png" ? ".png" : ".jpg"));
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    out.write(reinterpret_cast<const char*>(s.embedded.data()), static_cast<std::streamsize>(s.embedded.size()));
-    if (!out) throw ImageError(s.label + ": cannot write a temporary copy to " + tmp.string());
-  }
-  try {
-    Image img = read_image(tmp.string());
-    fs::remove(tmp);
-    return img;
-  } catch (const ImageError& e) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw ImageError(s.label + ": " + e.what());
-  }
+  return decode_image(s.embedded.data(), s.embedded.size(), s.label);  // PNG or JPEG (the reader checked)
 }
 
 }  // namespace texdefrag
