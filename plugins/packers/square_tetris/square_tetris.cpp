@@ -22,8 +22,10 @@
 
 #include <algorithm>
 #include <climits>
+#include <functional>
 #include <limits>
 #include <map>
+#include <string>
 #include <tuple>
 
 namespace texdefrag {
@@ -648,34 +650,32 @@ class SquareTetris : public Packer {
                                 "dropped on the horizon above the rectangles instead, as packers.tetris drops charts "
                                 "(reported as outline_tail_skipped; 0: no limit)")
                             .range(0, 100000000));
+    // note: default 300 from measurements (docs/packers.md, "Tail orders"): on best.json's merged
+    // atlases the other orders win 2-4% of page area where few charts make the page (t078_L15 162
+    // charts, t078_L17 101) and little or nothing on the 477-765-chart tiles, for one more full
+    // packing per order.
+    i.options.push_back(opt_int("order_trials_max_charts", 300,
+                                "With at most this many outline-tail charts, the tail is also packed in decreasing UV "
+                                "area and in decreasing shorter side, and the smallest result is kept (0: only the "
+                                "decreasing padded box area)")
+                            .range(0, 100000000));
     i.create = [] { return std::make_unique<SquareTetris>(); };
     return i;
   }
 
-  void pack(StageContext& ctx) override {
-    const std::string name = "packers.square_tetris";
-    const CommonSettings s = packing::read_common(options());
-    const PackInput in = packing::prepare_charts(ctx, s, name);
-    packing::check_chart_sizes(in, s, name);
-    std::vector<int> order = packing::order_by_area(in, s);
-    const long long tail_side = options().get_int("tail_side");
+  /// Everything one packing of the charts in `order` (rectangles [0, tail), then the tail) hands
+  /// to the report: the layout and the tail's outline masks.
+  struct OrderedPacking {
+    PackResult r;
+    std::vector<std::vector<RunMask>> profiles;
+  };
+
+  /// Packs the charts in `order` over every page width (pack_best_width). tail_skipped: the tail
+  /// is dropped on the horizon instead of placed by the bottom-left search.
+  OrderedPacking pack_in_order(const PackInput& in, const CommonSettings& s, std::vector<int> order, size_t tail,
+                               bool tail_skipped, StageContext& ctx) const {
     const double rect_min_fill = options().get_double("rect_min_fill");
-    // Rectangles: charts whose padded box is at least tail_side^2 and whose outline fills at least
-    // rect_min_fill of their box; every other chart joins the outline tail (both groups keep the
-    // decreasing-area order). note: big irregular charts (a scan's peel-like charts, L-shaped
-    // merged facades) waste their box corners as rectangles (docs/packers.md).
-    auto is_rect = [&](int id) {
-      const PackChart& c = in.charts[static_cast<size_t>(id)];
-      if (static_cast<long long>(packing::padded_w(c, 0, s)) * packing::padded_h(c, 0, s) < tail_side * tail_side) return false;
-      if (rect_min_fill <= 0 || tail_side == 0) return true;
-      const packing::Mask m = c.raster(0);
-      const double filled = static_cast<double>(std::count(m.cells.begin(), m.cells.end(), 1));
-      return filled >= rect_min_fill * static_cast<double>(m.cells.size());
-    };
-    const size_t tail = static_cast<size_t>(std::stable_partition(order.begin(), order.end(), is_rect) - order.begin());
-    const long long tail_max = options().get_int("tail_max_charts");
-    const size_t tail_charts = order.size() - tail;
-    const bool tail_skipped = tail_max > 0 && tail_charts > static_cast<size_t>(tail_max);
+    OrderedPacking t;
     size_t rects = tail;
     // A dropped tail keeps its charts that fill their box (as rect_min_fill says) as rectangles:
     // they fill the enclosed spaces; the drop never reuses space under the horizon. note: the UV
@@ -689,7 +689,8 @@ class SquareTetris : public Packer {
                 const packing::Mask m = c.raster(0);
                 return static_cast<double>(std::count(m.cells.begin(), m.cells.end(), 1)) >= rect_min_fill * box;
               }) - order.begin());
-    std::vector<std::vector<RunMask>> profiles(in.charts.size());
+    std::vector<std::vector<RunMask>>& profiles = t.profiles;
+    profiles.assign(in.charts.size(), {});
     std::vector<std::vector<packing::Profile>> drops(tail_skipped ? in.charts.size() : 0);
     double need = 0;  // texels^2 the charts need as placed: padded boxes or dilated outlines
     for (size_t n = 0; n < order.size(); ++n) {
@@ -727,10 +728,73 @@ class SquareTetris : public Packer {
     // (same result as packing them fully; t016_L19: ~2x faster).
     // note: page widths from the area the charts need as placed (padded boxes of the rectangles,
     // dilated outlines of the tail) as well as from their boxes.
-    const PackResult r = packing::pack_best_width(
+    t.r = packing::pack_best_width(
         in, s, need, [&](int width, packing::TrialBound& bound) {
           return pack_square_tetris(in, s, order, rects, profiles, drops, width, bound, ctx);
         });
+    return t;
+  }
+
+  /// The tail orders tried: decreasing padded box area (`order` as given), then, when the tail
+  /// holds at most order_trials_max_charts charts and is not skipped, decreasing UV area and
+  /// decreasing shorter padded side (ties keep the box-area order); identical orders once.
+  std::vector<std::pair<std::string, std::vector<int>>> tail_orders(const PackInput& in, const CommonSettings& s,
+                                                                    const std::vector<int>& order, size_t tail,
+                                                                    bool tail_skipped) const {
+    std::vector<std::pair<std::string, std::vector<int>>> out{{"box_area", order}};
+    const long long max_charts = options().get_int("order_trials_max_charts");
+    if (tail_skipped || max_charts <= 0 || order.size() - tail > static_cast<size_t>(max_charts)) return out;
+    auto uv = [&](int id) { return in.charts[static_cast<size_t>(id)].uv_area; };
+    auto side = [&](int id) {
+      const PackChart& c = in.charts[static_cast<size_t>(id)];
+      return static_cast<double>(std::min(packing::padded_w(c, 0, s), packing::padded_h(c, 0, s)));
+    };
+    const std::pair<const char*, std::function<double(int)>> keys[] = {{"uv_area", uv}, {"shorter_side", side}};
+    for (const auto& [key_name, key] : keys) {
+      std::vector<int> o = order;
+      std::stable_sort(o.begin() + static_cast<long>(tail), o.end(), [&](int a, int b) { return key(a) > key(b); });
+      if (std::none_of(out.begin(), out.end(), [&](const auto& e) { return e.second == o; })) out.emplace_back(key_name, std::move(o));
+    }
+    return out;
+  }
+
+  void pack(StageContext& ctx) override {
+    const std::string name = "packers.square_tetris";
+    const CommonSettings s = packing::read_common(options());
+    const PackInput in = packing::prepare_charts(ctx, s, name);
+    packing::check_chart_sizes(in, s, name);
+    std::vector<int> order = packing::order_by_area(in, s);
+    const long long tail_side = options().get_int("tail_side");
+    const double rect_min_fill = options().get_double("rect_min_fill");
+    // Rectangles: charts whose padded box is at least tail_side^2 and whose outline fills at least
+    // rect_min_fill of their box; every other chart joins the outline tail (both groups keep the
+    // decreasing-area order). note: big irregular charts (a scan's peel-like charts, L-shaped
+    // merged facades) waste their box corners as rectangles (docs/packers.md).
+    auto is_rect = [&](int id) {
+      const PackChart& c = in.charts[static_cast<size_t>(id)];
+      if (static_cast<long long>(packing::padded_w(c, 0, s)) * packing::padded_h(c, 0, s) < tail_side * tail_side) return false;
+      if (rect_min_fill <= 0 || tail_side == 0) return true;
+      const packing::Mask m = c.raster(0);
+      const double filled = static_cast<double>(std::count(m.cells.begin(), m.cells.end(), 1));
+      return filled >= rect_min_fill * static_cast<double>(m.cells.size());
+    };
+    const size_t tail = static_cast<size_t>(std::stable_partition(order.begin(), order.end(), is_rect) - order.begin());
+    const long long tail_max = options().get_int("tail_max_charts");
+    const size_t tail_charts = order.size() - tail;
+    const bool tail_skipped = tail_max > 0 && tail_charts > static_cast<size_t>(tail_max);
+    // Each tail order is a full packing; the fewest pages, then the least page area, then the
+    // earliest order wins (as page widths are chosen).
+    OrderedPacking best;
+    std::string best_order;
+    const auto orders = tail_orders(in, s, order, tail, tail_skipped);
+    for (const auto& [order_name, o] : orders) {
+      OrderedPacking t = pack_in_order(in, s, o, tail, tail_skipped, ctx);
+      if (best_order.empty() || t.r.pages < best.r.pages ||
+          (t.r.pages == best.r.pages && t.r.total_area() < best.r.total_area()))
+        best = std::move(t), best_order = order_name;
+    }
+    const PackResult& r = best.r;
+    const std::vector<std::vector<RunMask>>& profiles = best.profiles;
     ctx.step(name, 1.0);
     packing::write_layout(ctx, in, r);
     if (ctx.report) {
@@ -738,6 +802,8 @@ class SquareTetris : public Packer {
       (*ctx.report)["outline_drops"] = r.outline_drops;
       (*ctx.report)["tail_charts"] = tail_charts;
       (*ctx.report)["outline_tail_skipped"] = tail_skipped;
+      (*ctx.report)["tail_orders_tried"] = orders.size();
+      (*ctx.report)["tail_order"] = best_order;
       // where the page area goes: UV area / rasterised outlines / outlines dilated by the gutter
       long long outline = 0, padded = 0;
       for (const auto& p : profiles)

@@ -172,3 +172,49 @@ TEST(PackersSquareTetris, BigIrregularChartsPackedByOutline) {
   std::printf("4 L-shaped charts: efficiency %.3f by outline, %.3f as rectangles\n", e_outline, e_rects);
   EXPECT_GT(e_outline, 1.3 * e_rects);
 }
+
+TEST(PackersSquareTetris, TailOrdersKeepTheSmallestPacking) {
+  // Sets of 40 right triangles and L-shapes of pseudo-random sizes (fixed seeds), all in the
+  // outline tail. The tail is packed in decreasing padded box area, UV area and shorter side; the
+  // smallest page wins. With order_trials_max_charts 0 only the box-area order runs; with fewer
+  // tail charts allowed than there are, too. On these seeds another order wins at least once.
+  auto area = [](const PackRun& r) {
+    double s = 0;
+    for (const auto& p : r.ctx.layout.pages) s += static_cast<double>(p.width) * p.height;
+    return s;
+  };
+  int other_wins = 0;
+  for (uint32_t seed : {1u, 2u, 3u, 4u}) {
+    std::vector<std::vector<Vec2>> polys;
+    auto next = [&](int lo, int hi) {
+      seed = seed * 1664525u + 1013904223u;
+      return lo + static_cast<int>((seed >> 8) % static_cast<uint32_t>(hi - lo + 1));
+    };
+    for (int i = 0; i < 40; ++i) {
+      const double x = 300.0 * (i % 8), y = 300.0 * (i / 8);
+      const double a = next(20, 200), b = next(20, 200), t = next(5, 60);
+      if (i % 2 == 0) polys.push_back({{x, y}, {x + a, y}, {x, y + b}});
+      else polys.push_back({{x, y}, {x + a, y}, {x + a, y + t}, {x + t, y + t}, {x + t, y + b}, {x, y + b}});
+    }
+    auto box_only = run_packer(kName, polygon_mesh(polys, 4096), {{"order_trials_max_charts", 0}});
+    expect_valid_layout(*box_only, 4);
+    EXPECT_EQ(box_only->report.at("tail_orders_tried").get<int>(), 1);
+    EXPECT_EQ(box_only->report.at("tail_order").get<std::string>(), "box_area");
+    const int tail = box_only->report.at("tail_charts").get<int>();
+    EXPECT_GE(tail, 40);
+    auto too_many = run_packer(kName, polygon_mesh(polys, 4096), {{"order_trials_max_charts", tail - 1}});
+    EXPECT_EQ(too_many->report.at("tail_orders_tried").get<int>(), 1);
+    EXPECT_EQ(area(*too_many), area(*box_only));
+    auto all = run_packer(kName, polygon_mesh(polys, 4096), nlohmann::json::object());
+    expect_valid_layout(*all, 4);
+    EXPECT_EQ(all->report.at("tail_orders_tried").get<int>(), 3);
+    const std::string won = all->report.at("tail_order").get<std::string>();
+    std::printf("box-area order %.0f texels^2, kept %s %.0f\n", area(*box_only), won.c_str(), area(*all));
+    EXPECT_LE(area(*all), area(*box_only));
+    if (won != "box_area") {
+      EXPECT_LT(area(*all), area(*box_only));
+      ++other_wins;
+    }
+  }
+  EXPECT_GE(other_wins, 1);
+}
