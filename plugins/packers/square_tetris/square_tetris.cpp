@@ -750,10 +750,13 @@ class SquareTetris : public Packer {
       return static_cast<double>(std::min(packing::padded_w(c, 0, s), packing::padded_h(c, 0, s)));
     };
     const std::pair<const char*, std::function<double(int)>> keys[] = {{"uv_area", uv}, {"shorter_side", side}};
-    for (const auto& [key_name, key] : keys) {
+    for (const auto& entry : keys) {
+      // note: a plain reference, not a structured binding: the lambda captures it (Clang 14 refuses
+      // to capture structured bindings).
+      const std::function<double(int)>& key = entry.second;
       std::vector<int> o = order;
       std::stable_sort(o.begin() + static_cast<long>(tail), o.end(), [&](int a, int b) { return key(a) > key(b); });
-      if (std::none_of(out.begin(), out.end(), [&](const auto& e) { return e.second == o; })) out.emplace_back(key_name, std::move(o));
+      if (std::none_of(out.begin(), out.end(), [&](const auto& e) { return e.second == o; })) out.emplace_back(entry.first, std::move(o));
     }
     return out;
   }
