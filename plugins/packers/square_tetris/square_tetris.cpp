@@ -663,20 +663,25 @@ class SquareTetris : public Packer {
     return i;
   }
 
-  /// Everything one packing of the charts in `order` (rectangles [0, tail), then the tail) hands
-  /// to the report: the layout and the tail's outline masks.
-  struct OrderedPacking {
-    PackResult r;
-    std::vector<std::vector<RunMask>> profiles;
+  /// What every packing of the charts needs whatever the order of the tail: how many charts are
+  /// rectangles, the outline masks (or drop profiles) per chart and the area the charts need as
+  /// placed. None of it depends on the order within the tail (shape ids are labels only).
+  struct PackPlan {
+    size_t rects = 0;                                   ///< charts [0, rects) of the order are rectangles
+    std::vector<std::vector<RunMask>> profiles;         ///< per chart: outline masks of its quarter turns
+    std::vector<std::vector<packing::Profile>> drops;   ///< per chart: drop profiles (dropped tail only)
+    double need = 0;  ///< texels^2 the charts need as placed: padded boxes or dilated outlines
   };
 
-  /// Packs the charts in `order` over every page width (pack_best_width). tail_skipped: the tail
-  /// is dropped on the horizon instead of placed by the bottom-left search.
-  OrderedPacking pack_in_order(const PackInput& in, const CommonSettings& s, std::vector<int> order, size_t tail,
-                               bool tail_skipped, StageContext& ctx) const {
+  /// The plan for `order` (rectangles [0, tail), then the tail). tail_skipped: the tail is dropped
+  /// on the horizon instead of placed by the bottom-left search; its rectangle-like charts are then
+  /// moved to the front of the tail in `order`.
+  PackPlan plan_packing(const PackInput& in, const CommonSettings& s, std::vector<int>& order, size_t tail,
+                        bool tail_skipped) const {
     const double rect_min_fill = options().get_double("rect_min_fill");
-    OrderedPacking t;
-    size_t rects = tail;
+    PackPlan t;
+    t.rects = tail;
+    size_t& rects = t.rects;
     // A dropped tail keeps its charts that fill their box (as rect_min_fill says) as rectangles:
     // they fill the enclosed spaces; the drop never reuses space under the horizon. note: the UV
     // area decides first (no raster for the many rectangle charts: bench_packers 10k 0.50 -> ms
@@ -691,8 +696,9 @@ class SquareTetris : public Packer {
               }) - order.begin());
     std::vector<std::vector<RunMask>>& profiles = t.profiles;
     profiles.assign(in.charts.size(), {});
-    std::vector<std::vector<packing::Profile>> drops(tail_skipped ? in.charts.size() : 0);
-    double need = 0;  // texels^2 the charts need as placed: padded boxes or dilated outlines
+    std::vector<std::vector<packing::Profile>>& drops = t.drops;
+    drops.assign(tail_skipped ? in.charts.size() : 0, {});
+    double& need = t.need;
     for (size_t n = 0; n < order.size(); ++n) {
       const PackChart& c = in.charts[static_cast<size_t>(order[n])];
       if (n < rects) {
@@ -724,14 +730,6 @@ class SquareTetris : public Packer {
         out.back().shape = shapes.emplace(std::move(key), static_cast<int>(shapes.size())).first->second;
       }
     }
-    // note: once a width gives one page, later widths stop as soon as they cannot beat its area
-    // (same result as packing them fully; t016_L19: ~2x faster).
-    // note: page widths from the area the charts need as placed (padded boxes of the rectangles,
-    // dilated outlines of the tail) as well as from their boxes.
-    t.r = packing::pack_best_width(
-        in, s, need, [&](int width, packing::TrialBound& bound) {
-          return pack_square_tetris(in, s, order, rects, profiles, drops, width, bound, ctx);
-        });
     return t;
   }
 
@@ -785,19 +783,25 @@ class SquareTetris : public Packer {
     const long long tail_max = options().get_int("tail_max_charts");
     const size_t tail_charts = order.size() - tail;
     const bool tail_skipped = tail_max > 0 && tail_charts > static_cast<size_t>(tail_max);
-    // Each tail order is a full packing; the fewest pages, then the least page area, then the
-    // earliest order wins (as page widths are chosen).
-    OrderedPacking best;
+    const PackPlan plan = plan_packing(in, s, order, tail, tail_skipped);
+    // Each tail order is a full packing over every page width (pack_best_width); the fewest pages,
+    // then the least page area, then the earliest order wins (as page widths are chosen).
+    // note: once a width gives one page, later widths stop as soon as they cannot beat its area
+    // (same result as packing them fully; t016_L19: ~2x faster).
+    // note: page widths from the area the charts need as placed (padded boxes of the rectangles,
+    // dilated outlines of the tail) as well as from their boxes.
+    PackResult r;
     std::string best_order;
     const auto orders = tail_orders(in, s, order, tail, tail_skipped);
-    for (const auto& [order_name, o] : orders) {
-      OrderedPacking t = pack_in_order(in, s, o, tail, tail_skipped, ctx);
-      if (best_order.empty() || t.r.pages < best.r.pages ||
-          (t.r.pages == best.r.pages && t.r.total_area() < best.r.total_area()))
-        best = std::move(t), best_order = order_name;
+    for (const auto& entry : orders) {
+      const std::vector<int>& o = entry.second;
+      PackResult t = packing::pack_best_width(in, s, plan.need, [&](int width, packing::TrialBound& bound) {
+        return pack_square_tetris(in, s, o, plan.rects, plan.profiles, plan.drops, width, bound, ctx);
+      });
+      if (best_order.empty() || t.pages < r.pages || (t.pages == r.pages && t.total_area() < r.total_area()))
+        r = std::move(t), best_order = entry.first;
     }
-    const PackResult& r = best.r;
-    const std::vector<std::vector<RunMask>>& profiles = best.profiles;
+    const std::vector<std::vector<RunMask>>& profiles = plan.profiles;
     ctx.step(name, 1.0);
     packing::write_layout(ctx, in, r);
     if (ctx.report) {
