@@ -201,14 +201,12 @@ void k_ring(const Topology& topo, size_t f, int rings, std::vector<int>& stamp, 
   }
 }
 
-/// Normal scatter and coherence of every face's k-ring patch.
-void patch_features(const TexturedMesh& mesh, const Topology& topo, const std::vector<Vec3>& normals, int rings,
+/// Normal scatter and coherence of every face's k-ring patch. area: 3D area per face.
+void patch_features(const std::vector<double>& area, const Topology& topo, const std::vector<Vec3>& normals, int rings,
                     Classification& out) {
-  const size_t nf = mesh.faces.size();
+  const size_t nf = area.size();
   out.scatter.assign(nf, 0);
   out.coherence.assign(nf, 1);
-  std::vector<double> area(nf);
-  for (size_t f = 0; f < nf; ++f) area[f] = face_area_3d(mesh, f);
   const double cos_agree = std::cos(20.0 * M_PI / 180.0);
   std::vector<int> stamp(nf, -1), patch;
   for (size_t f = 0; f < nf; ++f) {
@@ -246,9 +244,9 @@ std::vector<int> initial_classes(const std::vector<Vec3>& normals, const Classif
 /// Area fraction of every component lying in large planar patches. Patches are grown inside each
 /// component from seeds in face order: a face joins its neighbour's patch when its filtered normal is
 /// within plane_angle_deg of the patch seed's (the seed, not the neighbour, so a curved surface does
-/// not drift into one patch); patches of at least plane_min_area count.
-std::vector<double> planar_fractions(const TexturedMesh& mesh, const Topology& topo, const std::vector<int>& comp, int n,
-                                     const std::vector<Vec3>& normals, const ClassifyOptions& o) {
+/// not drift into one patch); patches of at least plane_min_area count. face_area: 3D area per face.
+std::vector<double> planar_fractions(const std::vector<double>& face_area, const Topology& topo, const std::vector<int>& comp,
+                                     int n, const std::vector<Vec3>& normals, const ClassifyOptions& o) {
   const double cos_plane = std::cos(o.plane_angle_deg * M_PI / 180.0);
   std::vector<double> planar(static_cast<size_t>(n), 0), total(static_cast<size_t>(n), 0);
   std::vector<uint8_t> done(comp.size(), 0);
@@ -260,7 +258,7 @@ std::vector<double> planar_fractions(const TexturedMesh& mesh, const Topology& t
     double area = 0;
     for (size_t i = 0; i < patch.size(); ++i) {
       const size_t f = static_cast<size_t>(patch[i]);
-      area += face_area_3d(mesh, f);
+      area += face_area[f];
       for_each_neighbour(topo, f, [&](int g) {
         const size_t gi = static_cast<size_t>(g);
         if (!done[gi] && comp[gi] == comp[s] && normals[gi].dot(normals[s]) >= cos_plane) done[gi] = 1, patch.push_back(g);
@@ -276,7 +274,8 @@ std::vector<double> planar_fractions(const TexturedMesh& mesh, const Topology& t
 /// Connected smooth candidates that are tall and large enough become buildings when most of their
 /// surface lies in large planes; tall, large and not planar they are vegetation (tree crowns that the
 /// producer simplified into smooth blobs), else they stay `other`. Returns the buildings' count.
-int promote_buildings(const TexturedMesh& mesh, const Topology& topo, const std::vector<uint8_t>& candidate,
+/// face_area: 3D area per face.
+int promote_buildings(const std::vector<double>& face_area, const Topology& topo, const std::vector<uint8_t>& candidate,
                       const std::vector<Vec3>& normals, const ClassifyOptions& o, Classification& c, std::vector<int>& cls) {
   std::vector<int> lab(candidate.size(), -1);
   for (size_t f = 0; f < candidate.size(); ++f)
@@ -287,9 +286,9 @@ int promote_buildings(const TexturedMesh& mesh, const Topology& topo, const std:
   for (size_t f = 0; f < comp.size(); ++f) {
     if (comp[f] < 0) continue;
     top[static_cast<size_t>(comp[f])] = std::max(top[static_cast<size_t>(comp[f])], c.height[f]);
-    area[static_cast<size_t>(comp[f])] += face_area_3d(mesh, f);
+    area[static_cast<size_t>(comp[f])] += face_area[f];
   }
-  const std::vector<double> planar = planar_fractions(mesh, topo, comp, n, normals, o);
+  const std::vector<double> planar = planar_fractions(face_area, topo, comp, n, normals, o);
   int buildings = 0;
   std::vector<int> verdict(static_cast<size_t>(n), static_cast<int>(FaceClass::Other));
   for (size_t k = 0; k < verdict.size(); ++k) {
@@ -358,18 +357,20 @@ Classification classify_faces(const TexturedMesh& mesh, const Topology& topo, co
   std::vector<Vec3> centroids(nf);
   for (size_t f = 0; f < nf; ++f) centroids[f] = centroid(mesh, f);
   const std::vector<Vec3> normals = filter_face_normals(mesh, topo, o.normal_filter_iterations, 30.0 * M_PI / 180.0);
+  std::vector<double> area(nf);
+  for (size_t f = 0; f < nf; ++f) area[f] = face_area_3d(mesh, f);
   c.height = heights_above_ground(centroids, normals, o);
-  patch_features(mesh, topo, normals, o.patch_rings, c);
+  patch_features(area, topo, normals, o.patch_rings, c);
   std::vector<uint8_t> candidate;
   std::vector<int> cls = initial_classes(normals, c, o, candidate);
-  promote_buildings(mesh, topo, candidate, normals, o, c, cls);
+  promote_buildings(area, topo, candidate, normals, o, c, cls);
   c.relabelled_islands = absorb_islands(topo, o.min_component_faces, cls);
   c.face_class.resize(nf);
   std::vector<int> building(nf, -1);
   for (size_t f = 0; f < nf; ++f) {
     c.face_class[f] = static_cast<FaceClass>(cls[f]);
     ++c.faces_per_class[static_cast<size_t>(cls[f])];
-    c.area_per_class[static_cast<size_t>(cls[f])] += face_area_3d(mesh, f);
+    c.area_per_class[static_cast<size_t>(cls[f])] += area[f];
     if (c.face_class[f] == FaceClass::Building) building[f] = 0;
   }
   label_components(topo, building, c.building_components);
