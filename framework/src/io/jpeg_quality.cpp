@@ -34,39 +34,56 @@ int scaled(int base, int quality) {
   return static_cast<int>(std::clamp(v, 1L, 255L));
 }
 
-}  // namespace
-
-std::optional<int> estimate_jpeg_quality(const uint8_t* data, size_t size) {
-  if (size < 4 || data[0] != 0xFF || data[1] != 0xD8) return std::nullopt;
-  std::array<std::vector<int>, 4> tables;  // natural order, by table id
+/// Walks the marker segments of a JPEG header, from SOI up to SOS or EOI: f(marker, pos, len) for
+/// each segment (pos: its 0xFF byte, len: its length field, >= 2); fill bytes are skipped. Returns
+/// false when the data is not a JPEG header (no SOI, a byte that is no marker, a length under 2),
+/// true when it reached SOS, EOI or the end of the data, or when f returned false.
+template <class F>
+bool walk_segments(const uint8_t* data, size_t size, F&& f) {
+  if (size < 4 || data[0] != 0xFF || data[1] != 0xD8) return false;
   size_t pos = 2;
   while (pos + 4 <= size) {
-    if (data[pos] != 0xFF) return std::nullopt;
+    if (data[pos] != 0xFF) return false;
     const uint8_t marker = data[pos + 1];
     if (marker == 0xFF) {  // fill byte
       ++pos;
       continue;
     }
-    if (marker == 0xDA || marker == 0xD9) break;  // SOS / EOI: no DQT after this point matters
+    if (marker == 0xDA || marker == 0xD9) return true;  // SOS / EOI: no header segment after this
     const size_t len = static_cast<size_t>(data[pos + 2]) << 8 | data[pos + 3];
-    if (len < 2) return std::nullopt;
-    if (marker == 0xDB) {
-      size_t q = pos + 4;
-      const size_t end = std::min(size, pos + 2 + len);
-      while (q < end) {
-        const int precision = data[q] >> 4, id = data[q] & 0x0F;
-        const size_t n = precision ? 128 : 64;
-        if (id > 3 || q + 1 + n > end) return std::nullopt;
-        std::vector<int> t(64);
-        for (size_t k = 0; k < 64; ++k)
-          t[static_cast<size_t>(kNaturalOrder[k])] =
-              precision ? (data[q + 1 + 2 * k] << 8 | data[q + 2 + 2 * k]) : data[q + 1 + k];
-        tables[static_cast<size_t>(id)] = std::move(t);
-        q += 1 + n;
-      }
-    }
+    if (len < 2) return false;
+    if (!f(marker, pos, len)) return true;
     pos += 2 + len;
   }
+  return true;
+}
+
+}  // namespace
+
+std::optional<int> estimate_jpeg_quality(const uint8_t* data, size_t size) {
+  std::array<std::vector<int>, 4> tables;  // natural order, by table id
+  bool bad_table = false;
+  const bool header = walk_segments(data, size, [&](uint8_t marker, size_t pos, size_t len) {
+    if (marker != 0xDB) return true;
+    size_t q = pos + 4;
+    const size_t end = std::min(size, pos + 2 + len);
+    while (q < end) {
+      const int precision = data[q] >> 4, id = data[q] & 0x0F;
+      const size_t n = precision ? 128 : 64;
+      if (id > 3 || q + 1 + n > end) {
+        bad_table = true;
+        return false;
+      }
+      std::vector<int> t(64);
+      for (size_t k = 0; k < 64; ++k)
+        t[static_cast<size_t>(kNaturalOrder[k])] =
+            precision ? (data[q + 1 + 2 * k] << 8 | data[q + 2 + 2 * k]) : data[q + 1 + k];
+      tables[static_cast<size_t>(id)] = std::move(t);
+      q += 1 + n;
+    }
+    return true;
+  });
+  if (!header || bad_table) return std::nullopt;
   if (tables[0].empty()) return std::nullopt;
   int best = 0;
   long best_err = std::numeric_limits<long>::max();
@@ -103,37 +120,24 @@ std::optional<int> estimate_jpeg_quality_of_file(const std::string& path) {
 }
 
 std::optional<JpegSubsampling> read_jpeg_subsampling(const uint8_t* data, size_t size) {
-  if (size < 4 || data[0] != 0xFF || data[1] != 0xD8) return std::nullopt;
-  size_t pos = 2;
-  while (pos + 4 <= size) {
-    if (data[pos] != 0xFF) return std::nullopt;
-    const uint8_t marker = data[pos + 1];
-    if (marker == 0xFF) {  // fill byte
-      ++pos;
-      continue;
-    }
-    if (marker == 0xDA || marker == 0xD9) return std::nullopt;  // SOS / EOI before any SOF
-    const size_t len = static_cast<size_t>(data[pos + 2]) << 8 | data[pos + 3];
-    if (len < 2) return std::nullopt;
+  std::optional<JpegSubsampling> found;
+  walk_segments(data, size, [&](uint8_t marker, size_t pos, size_t len) {
     // SOF0..SOF15 except DHT (C4), JPG (C8) and DAC (CC).
     const bool sof = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
-    if (sof) {
-      // length(2) precision(1) height(2) width(2) components(1), then 3 bytes per component:
-      // id, H<<4|V, table.
-      if (len < 8 || pos + 2 + len > size) return std::nullopt;
-      const size_t components = data[pos + 9];
-      if (components < 3 || len < 8 + 3 * components) return std::nullopt;
-      const int yh = data[pos + 11] >> 4, yv = data[pos + 11] & 0x0F;
-      const int ch = data[pos + 14] >> 4, cv = data[pos + 14] & 0x0F;
-      if (ch == 0 || cv == 0) return std::nullopt;
-      const int rh = yh / ch, rv = yv / cv;  // how many luminance samples per chrominance sample
-      if (rh <= 1 && rv <= 1) return JpegSubsampling::S444;
-      if (rh * rv == 2) return JpegSubsampling::S422;
-      return JpegSubsampling::S420;
-    }
-    pos += 2 + len;
-  }
-  return std::nullopt;
+    if (!sof) return true;
+    // length(2) precision(1) height(2) width(2) components(1), then 3 bytes per component:
+    // id, H<<4|V, table. The first SOF decides (a malformed one: no answer).
+    if (len < 8 || pos + 2 + len > size) return false;
+    const size_t components = data[pos + 9];
+    if (components < 3 || len < 8 + 3 * components) return false;
+    const int yh = data[pos + 11] >> 4, yv = data[pos + 11] & 0x0F;
+    const int ch = data[pos + 14] >> 4, cv = data[pos + 14] & 0x0F;
+    if (ch == 0 || cv == 0) return false;
+    const int rh = yh / ch, rv = yv / cv;  // how many luminance samples per chrominance sample
+    found = rh <= 1 && rv <= 1 ? JpegSubsampling::S444 : rh * rv == 2 ? JpegSubsampling::S422 : JpegSubsampling::S420;
+    return false;
+  });
+  return found;
 }
 
 std::optional<JpegSubsampling> read_jpeg_subsampling_of_file(const std::string& path) {
