@@ -372,8 +372,9 @@ def scan_functions(text, path):
     return functions
 
 
-def _argument_tail(header):
-    """The text of the last, unfinished argument in `header` (which has an unclosed `(`)."""
+def _open_position(header, stop_at_comma):
+    """Index in `header` (which has an unclosed `(`) of its last unclosed bracket or, with
+    stop_at_comma, of a comma at that depth if one comes later; -1 when there is none."""
     depth = 0
     for k in range(len(header) - 1, -1, -1):
         c = header[k]
@@ -381,26 +382,25 @@ def _argument_tail(header):
             depth += 1
         elif c in "([{":
             if depth == 0:
-                return header[k + 1:]
+                return k
             depth -= 1
-        elif c == "," and depth == 0:
-            return header[k + 1:]
-    return header
+        elif stop_at_comma and c == "," and depth == 0:
+            return k
+    return -1
+
+
+def _argument_tail(header):
+    """The text of the last, unfinished argument in `header` (which has an unclosed `(`)."""
+    return header[_open_position(header, stop_at_comma=True) + 1:]
 
 
 def _call_name(header):
     """The name of the call whose arguments are open at the end of `header`."""
-    depth = 0
-    for k in range(len(header) - 1, -1, -1):
-        c = header[k]
-        if c in ")]}":
-            depth += 1
-        elif c in "([{":
-            if depth == 0:
-                m = re.search(r"([A-Za-z_][\w:]*)\s*$", header[:k])
-                return m.group(1) if m else "<call>"
-            depth -= 1
-    return "<call>"
+    k = _open_position(header, stop_at_comma=False)
+    if k < 0:
+        return "<call>"
+    m = re.search(r"([A-Za-z_][\w:]*)\s*$", header[:k])
+    return m.group(1) if m else "<call>"
 
 
 def _is_lambda_head(text):
