@@ -206,6 +206,16 @@ def ok_rows(rows, config):
     return [r for r in rows if r["config"] == config and r.get("status") == "ok"]
 
 
+def save_if_drawn(plt, fig, path, title, drew):
+    """Titles and lays out `fig`, writes it to `path` when any panel was drawn, closes it; returns drew."""
+    fig.suptitle(title)
+    fig.tight_layout()
+    if drew:
+        fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return drew
+
+
 def histogram_figure(plt, rows, configs, panels, path, title):
     """One histogram panel per (metric, label); configurations overlaid, bins of 5%."""
     fig, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 4.2), squeeze=False)
@@ -223,12 +233,7 @@ def histogram_figure(plt, rows, configs, panels, path, title):
         ax.yaxis.set_major_locator(plt.MaxNLocator(integer=True))
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
-    fig.suptitle(title)
-    fig.tight_layout()
-    if drew:
-        fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return drew
+    return save_if_drawn(plt, fig, path, title, drew)
 
 
 def config_bars_figure(plt, rows, configs, panels, path, title):
@@ -249,12 +254,7 @@ def config_bars_figure(plt, rows, configs, panels, path, title):
         ax.set_ylabel(f"{label} ({unit})" if unit else label)
         ax.grid(axis="y", alpha=0.3)
         drew = True
-    fig.suptitle(title)
-    fig.tight_layout()
-    if drew:
-        fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return drew
+    return save_if_drawn(plt, fig, path, title, drew)
 
 
 def per_model_bars(plt, rows, configs, metric, ax, scale=100, baseline_metric=None, labels=None):
