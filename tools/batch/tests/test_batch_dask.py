@@ -162,7 +162,7 @@ class DaskSchedulerLostTest(unittest.TestCase):
         cls.work = os.path.join(common.WORKDIR, "dask_lost")
         shutil.rmtree(cls.work, ignore_errors=True)
         os.makedirs(cls.work)
-        cls.prod = common.make_production(os.path.join(common.WORKDIR, "prod8"), 8, seed=11,
+        cls.prod = common.make_production(os.path.join(common.WORKDIR, "prod8_lost"), 8, seed=11,
                                           min_faces=2000, max_faces=4000)
 
     def test_scheduler_lost_mid_batch(self):
