@@ -30,6 +30,7 @@ double seconds_since(Clock::time_point t0) {
 /// Times a step and records its figures under report["stages"][name].
 template <class F>
 void timed(json& report, const std::string& name, F&& fn) {
+  const size_t rss_start = current_rss_bytes();
   reset_peak_rss();
   json& node = report["stages"][name];
   if (node.is_null()) node = json::object();
@@ -39,6 +40,7 @@ void timed(json& report, const std::string& name, F&& fn) {
   node["time_s"] = seconds_since(t0);
   node["cpu_s"] = process_cpu_seconds() - c0;
   node["peak_rss_bytes"] = peak_rss_bytes();
+  node["rss_start_bytes"] = rss_start;
 }
 
 json chart_summary(const ChartSet& cs) {
@@ -144,7 +146,7 @@ size_t chart_overlap_pairs(const TexturedMesh& mesh, const Atlas& atlas) {
 
 /// Report keys the framework writes into every stage's node; a stage that writes one is an error
 /// (one name per figure, and the framework's figures cannot be forged).
-const char* const kReservedKeys[] = {"section", "time_s", "cpu_s", "peak_rss_bytes", "regions", "charts_in",
+const char* const kReservedKeys[] = {"section", "time_s", "cpu_s", "peak_rss_bytes", "rss_start_bytes", "regions", "charts_in",
                                      "charts_out", "distortion_arap", "flipped_faces", "pages_out",
                                      "uv_overlap_pairs"};
 

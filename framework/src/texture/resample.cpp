@@ -186,11 +186,60 @@ struct CopyMap {
   long long ci = 0, cj = 0, c0 = 0, ri = 0, rj = 0, r0 = 0;
 };
 
+/// One face as the renderer and the fit read it: built on demand by JobSource::job (a page keeps
+/// only its faces' numbers: at 1M faces, a list of these would take 112 MB).
 struct FaceJob {
   int face = -1;
   int in_page = -1;
   bool repeat = true;  // the input page's addressing
   std::array<Vec2, 3> out, in;  // texel space, y up
+};
+
+/// With repeat addressing a face reads the same texels moved by whole pages: moves it so its lowest
+/// corner lies in the first period (u, v in [0, 1)), keeping the numbers small (a chart at u = 37
+/// then reads exactly as one at u = 0). Faces already there are not touched. Returns whether the
+/// face then lies within that one period (u, v in [0, 1]).
+bool shift_into_first_period(std::array<Vec2, 3>& in, const Page& page) {
+  const double W = page.width, H = page.height;
+  // note: half a texel of slack, so faces of an atlas that reach a hair past its edge (UV rounding
+  // in exporters) stay where they are and read as before.
+  const auto within = [&] {
+    const double t = 0.5;
+    for (const Vec2& p : in)
+      if (!(p.x() >= -t && p.x() <= W + t && p.y() >= -t && p.y() <= H + t)) return false;
+    return true;
+  };
+  if (within()) return true;
+  const double kx = std::floor(std::min({in[0].x(), in[1].x(), in[2].x()}) / W);
+  const double ky = std::floor(std::min({in[0].y(), in[1].y(), in[2].y()}) / H);
+  for (Vec2& p : in) p -= Vec2(kx * W, ky * H);
+  return within();
+}
+
+/// Where a face's job comes from: its output triangle from the layout, its input triangle from the
+/// mesh (moved into the first period of a repeating page when it lies within one period there).
+struct JobSource {
+  const TexturedMesh* mesh = nullptr;
+  const Atlas* atlas = nullptr;
+  const Layout* layout = nullptr;
+
+  FaceJob job(int f) const {
+    const size_t fs = static_cast<size_t>(f);
+    FaceJob job;
+    job.face = f;
+    job.in_page = mesh->faces[fs].page;
+    const Page& page = mesh->pages[static_cast<size_t>(job.in_page)];
+    job.repeat = !page.clamp;
+    for (int k = 0; k < 3; ++k) {
+      job.out[static_cast<size_t>(k)] = layout->wedge_uv[static_cast<size_t>(atlas->face_wedge[fs][static_cast<size_t>(k)])];
+      job.in[static_cast<size_t>(k)] = mesh->corner_texel(fs, k);
+    }
+    // note: a face within one period samples it with edge clamping, as before: its only reads
+    // beyond the page edge are border texels and half-texel bilinear taps, and in an atlas the
+    // opposite edge holds an unrelated chart. Only faces that cross the page border wrap.
+    if (job.repeat) job.repeat = !shift_into_first_period(job.in, page);
+    return job;
+  }
 };
 
 /// Doubled signed area of output triangle o; `degenerate` when |2 area| <= kDegenerateRatio x its
@@ -836,16 +885,17 @@ void solve_fit(const FitSystem& sys, std::vector<float>& rhs, std::vector<float>
 }
 
 /// The fit over the fitted texels of the window [X0, X1) x [Y0, Y1) (texel indices, row 0 at the
-/// top). Returns the number of texels fitted.
+/// top); `faces`: the page's faces (in face order) whose box may reach the window's cells (others
+/// add nothing). Returns the number of texels fitted.
 template <int C>
-size_t fit_window(const std::vector<FaceJob>& jobs, const std::vector<const Image*>& inputs, int iterations,
-                  Canvas& cv, int X0, int Y0, int X1, int Y1) {
+size_t fit_window(const std::vector<int>& faces, const JobSource& source, const std::vector<const Image*>& inputs,
+                  int iterations, Canvas& cv, int X0, int Y0, int X1, int Y1) {
   const FitUnknowns unknowns = collect_unknowns(cv, X0, Y0, X1, Y1);
   const size_t U = unknowns.texel_of.size();
   if (U == 0) return 0;
   FitCells cells(cv.w, cv.h, X0, Y0, X1, Y1);
   std::vector<float> rhs(U * C, 0.f);
-  for (const FaceJob& job : jobs) add_face_to_rhs<C>(job, inputs, unknowns, cells, rhs);
+  for (const int f : faces) add_face_to_rhs<C>(source.job(f), inputs, unknowns, cells, rhs);
   // Fixed corners move to the right-hand side; the Tikhonov term pulls towards the sampled value.
   FitSystem sys = assemble_system<C>(cv, unknowns, cells, rhs);
   cells.mask = std::vector<uint8_t>();
@@ -872,10 +922,50 @@ size_t fit_window(const std::vector<FaceJob>& jobs, const std::vector<const Imag
 /// Wavefronts t = 2 i + j satisfy that: (i-1, j+1) is on t-1, (i+1, j-1) on t+1, and windows of one
 /// wavefront are two columns apart, so their rings never meet. The texels are those of the raster
 /// order, byte for byte, for any thread count.
+/// The page's faces (in face order) whose grid box may reach the cells of each fit window (index
+/// row * nx + column): a superset of the faces that add to the window's right-hand side (the test in
+/// add_face_to_rhs is exact), without degenerate faces (which add nothing). Each window then visits
+/// its own faces instead of all the page's.
+std::vector<std::vector<int>> window_faces(const std::vector<int>& faces, const JobSource& source, int H, int nx,
+                                           int ny) {
+  std::vector<std::vector<int>> out(static_cast<size_t>(nx) * static_cast<size_t>(ny));
+  const double K = kFitWindow;
+  // Window c's cells m lie in [cK - 1, (c + 1)K - 1]: a box [mlo, mhi] of cells reaches it only when
+  // floor((mlo + 1) / K) - 1 <= c <= floor((mhi + 1) / K).
+  const auto range = [K](double lo, double hi, int n, int& a, int& b) {
+    a = static_cast<int>(std::max(std::floor((std::floor(lo) + 1) / K) - 1, 0.0));
+    b = static_cast<int>(std::min(std::floor((std::floor(hi) + 1) / K), static_cast<double>(n - 1)));
+    return a <= b;
+  };
+  for (const int f : faces) {
+    std::array<Vec2, 3> o;
+    for (int k = 0; k < 3; ++k)
+      o[static_cast<size_t>(k)] = source.layout->wedge_uv[static_cast<size_t>(source.atlas->face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
+    bool degenerate = false;
+    output_det(o, degenerate);
+    if (degenerate) continue;
+    const double gxmin = std::min({o[0].x(), o[1].x(), o[2].x()}) - 0.5, gxmax = std::max({o[0].x(), o[1].x(), o[2].x()}) - 0.5;
+    const double gymin = H - std::max({o[0].y(), o[1].y(), o[2].y()}) - 0.5, gymax = H - std::min({o[0].y(), o[1].y(), o[2].y()}) - 0.5;
+    int c0, c1, r0, r1;
+    if (!range(gxmin, gxmax, nx, c0, c1) || !range(gymin, gymax, ny, r0, r1)) continue;
+    for (int r = r0; r <= r1; ++r)
+      for (int c = c0; c <= c1; ++c) out[static_cast<size_t>(r) * static_cast<size_t>(nx) + static_cast<size_t>(c)].push_back(f);
+  }
+  return out;
+}
+
+/// The least-squares fit of every fitted texel of the page, window by window (kFitWindow), on up to
+/// `threads` threads with the result of the raster order. A window writes only its own texels and
+/// reads them and a ring one texel wide around it, so window (i, j) (row i, column j) must see
+/// (i-1, j+1), (i-1, j), (i-1, j-1) and (i, j-1) fitted and (i, j+1), (i+1, *) not yet fitted.
+/// Wavefronts t = 2 i + j satisfy that: (i-1, j+1) is on t-1, (i+1, j-1) on t+1, and windows of one
+/// wavefront are two columns apart, so their rings never meet. The texels are those of the raster
+/// order, byte for byte, for any thread count.
 template <int C>
-size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<const Image*>& inputs, int iterations,
-                         Canvas& cv, int threads) {
+size_t fit_least_squares(const std::vector<int>& faces, const JobSource& source, const std::vector<const Image*>& inputs,
+                         int iterations, Canvas& cv, int threads) {
   const int nx = (cv.w + kFitWindow - 1) / kFitWindow, ny = (cv.h + kFitWindow - 1) / kFitWindow;
+  std::vector<std::vector<int>> per_window = window_faces(faces, source, cv.h, nx, ny);
   size_t fitted = 0;
   for (int t = 0; t <= 2 * (ny - 1) + (nx - 1); ++t) {
     std::vector<std::pair<int, int>> wave;  // (row, column)
@@ -884,8 +974,10 @@ size_t fit_least_squares(const std::vector<FaceJob>& jobs, const std::vector<con
     std::vector<size_t> counts(wave.size(), 0);
     parallel_for(wave.size(), threads, [&](size_t k) {
       const int x0 = wave[k].second * kFitWindow, y0 = wave[k].first * kFitWindow;
-      counts[k] = fit_window<C>(jobs, inputs, iterations, cv, x0, y0, std::min(x0 + kFitWindow, cv.w),
+      std::vector<int>& mine = per_window[static_cast<size_t>(wave[k].first) * static_cast<size_t>(nx) + static_cast<size_t>(wave[k].second)];
+      counts[k] = fit_window<C>(mine, source, inputs, iterations, cv, x0, y0, std::min(x0 + kFitWindow, cv.w),
                                 std::min(y0 + kFitWindow, cv.h));
+      mine = std::vector<int>();
     });
     for (size_t c : counts) fitted += c;
   }
@@ -1101,15 +1193,17 @@ struct Progress {
 constexpr size_t kFacesPerTick = 2048;
 constexpr size_t kFillTexelsPerUnit = 64;
 
+/// An output page's faces, in face order.
 struct PageTask {
-  std::vector<FaceJob> jobs;
+  std::vector<int> faces;
 };
 
 template <int C>
-void render_page_jobs(const std::vector<FaceJob>& jobs, const std::vector<const Image*>& inputs, Filter filter,
-                      Canvas& cv, PageStats& st, Progress& prog) {
+void render_page_jobs(const std::vector<int>& faces, const JobSource& source, const std::vector<const Image*>& inputs,
+                      Filter filter, Canvas& cv, PageStats& st, Progress& prog) {
   size_t since = 0;
-  for (const FaceJob& job : jobs) {
+  for (const int f : faces) {
+    const FaceJob job = source.job(f);
     const Image& in = *inputs[static_cast<size_t>(job.in_page)];
     Sampler<C> s;
     s.px = in.pixels.data();
@@ -1126,8 +1220,8 @@ void render_page_jobs(const std::vector<FaceJob>& jobs, const std::vector<const 
   prog.tick(since);
 }
 
-void render_page(const PageTask& task, const std::vector<const Image*>& inputs, const ResampleOptions& opt,
-                 Image& out, ResampleStats& st, Progress& prog, int threads) {
+void render_page(const PageTask& task, const JobSource& source, const std::vector<const Image*>& inputs,
+                 const ResampleOptions& opt, Image& out, ResampleStats& st, Progress& prog, int threads) {
   const int C = out.channels;
   Canvas cv;
   cv.img = &out;
@@ -1138,18 +1232,20 @@ void render_page(const PageTask& task, const std::vector<const Image*>& inputs, 
   cv.dist.assign(n, 0.f);
   PageStats ps;
   switch (C) {
-    case 1: render_page_jobs<1>(task.jobs, inputs, opt.filter, cv, ps, prog); break;
-    case 2: render_page_jobs<2>(task.jobs, inputs, opt.filter, cv, ps, prog); break;
-    case 3: render_page_jobs<3>(task.jobs, inputs, opt.filter, cv, ps, prog); break;
-    default: render_page_jobs<4>(task.jobs, inputs, opt.filter, cv, ps, prog); break;
+    case 1: render_page_jobs<1>(task.faces, source, inputs, opt.filter, cv, ps, prog); break;
+    case 2: render_page_jobs<2>(task.faces, source, inputs, opt.filter, cv, ps, prog); break;
+    case 3: render_page_jobs<3>(task.faces, source, inputs, opt.filter, cv, ps, prog); break;
+    default: render_page_jobs<4>(task.faces, source, inputs, opt.filter, cv, ps, prog); break;
   }
   if (prog.cancelled) return;
+  // note: the distances serve only the rendering (4 bytes per texel: 120 MB on a 30 MP page).
+  cv.dist = std::vector<float>();
   if (opt.fit == TexelFit::LeastSquares) {
     switch (C) {
-      case 1: st.texels_fitted = fit_least_squares<1>(task.jobs, inputs, opt.fit_iterations, cv, threads); break;
-      case 2: st.texels_fitted = fit_least_squares<2>(task.jobs, inputs, opt.fit_iterations, cv, threads); break;
-      case 3: st.texels_fitted = fit_least_squares<3>(task.jobs, inputs, opt.fit_iterations, cv, threads); break;
-      default: st.texels_fitted = fit_least_squares<4>(task.jobs, inputs, opt.fit_iterations, cv, threads); break;
+      case 1: st.texels_fitted = fit_least_squares<1>(task.faces, source, inputs, opt.fit_iterations, cv, threads); break;
+      case 2: st.texels_fitted = fit_least_squares<2>(task.faces, source, inputs, opt.fit_iterations, cv, threads); break;
+      case 3: st.texels_fitted = fit_least_squares<3>(task.faces, source, inputs, opt.fit_iterations, cv, threads); break;
+      default: st.texels_fitted = fit_least_squares<4>(task.faces, source, inputs, opt.fit_iterations, cv, threads); break;
     }
   }
   st.faces_copied = ps.faces_copied;
@@ -1164,27 +1260,6 @@ void render_page(const PageTask& task, const std::vector<const Image*>& inputs, 
     case GutterFill::PullPush: pull_push(out, cv.state); break;
   }
   prog.tick(n / kFillTexelsPerUnit);
-}
-
-/// With repeat addressing a face reads the same texels moved by whole pages: moves it so its lowest
-/// corner lies in the first period (u, v in [0, 1)), keeping the numbers small (a chart at u = 37
-/// then reads exactly as one at u = 0). Faces already there are not touched. Returns whether the
-/// face then lies within that one period (u, v in [0, 1]).
-bool shift_into_first_period(std::array<Vec2, 3>& in, const Page& page) {
-  const double W = page.width, H = page.height;
-  // note: half a texel of slack, so faces of an atlas that reach a hair past its edge (UV rounding
-  // in exporters) stay where they are and read as before.
-  const auto within = [&] {
-    const double t = 0.5;
-    for (const Vec2& p : in)
-      if (!(p.x() >= -t && p.x() <= W + t && p.y() >= -t && p.y() <= H + t)) return false;
-    return true;
-  };
-  if (within()) return true;
-  const double kx = std::floor(std::min({in[0].x(), in[1].x(), in[2].x()}) / W);
-  const double ky = std::floor(std::min({in[0].y(), in[1].y(), in[2].y()}) / H);
-  for (Vec2& p : in) p -= Vec2(kx * W, ky * H);
-  return within();
 }
 
 /// Finite and within 1e9 texels (keeps every product of coordinates far from overflow).
@@ -1286,27 +1361,14 @@ std::vector<const Image*> inputs_at_channels(const std::vector<Image>& input_pag
   return inputs;
 }
 
-/// The faces of each output page, in face order, with their output and input triangles (texels)
-/// and the input page's addressing; a face within one period of a repeating page is moved into it
-/// and read with edge clamping. Adds the number of faces to num_jobs.
+/// The faces of each output page, in face order (their jobs come from a JobSource). Adds the number
+/// of faces to num_jobs.
 std::vector<PageTask> page_tasks(const TexturedMesh& mesh, const Atlas& atlas, const Layout& layout, size_t& num_jobs) {
   std::vector<PageTask> tasks(layout.pages.size());
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     const int chart = atlas.face_chart[f];
     if (chart < 0) continue;
-    FaceJob job;
-    job.face = static_cast<int>(f);
-    job.in_page = mesh.faces[f].page;
-    job.repeat = !mesh.pages[static_cast<size_t>(job.in_page)].clamp;
-    for (int k = 0; k < 3; ++k) {
-      job.out[static_cast<size_t>(k)] = layout.wedge_uv[static_cast<size_t>(atlas.face_wedge[f][static_cast<size_t>(k)])];
-      job.in[static_cast<size_t>(k)] = mesh.corner_texel(f, k);
-    }
-    // note: a face within one period samples it with edge clamping, as before: its only reads
-    // beyond the page edge are border texels and half-texel bilinear taps, and in an atlas the
-    // opposite edge holds an unrelated chart. Only faces that cross the page border wrap.
-    if (job.repeat) job.repeat = !shift_into_first_period(job.in, mesh.pages[static_cast<size_t>(job.in_page)]);
-    tasks[static_cast<size_t>(layout.chart_page[static_cast<size_t>(chart)])].jobs.push_back(job);
+    tasks[static_cast<size_t>(layout.chart_page[static_cast<size_t>(chart)])].faces.push_back(static_cast<int>(f));
     ++num_jobs;
   }
   return tasks;
@@ -1338,7 +1400,7 @@ std::vector<Image> blank_pages(const Layout& layout, int channels, const uint8_t
 /// thread, biggest first; the calling thread also reports progress. Rethrows the first error;
 /// stops early (prog.cancelled) when the progress callback cancels. The texels depend on neither
 /// the thread count nor the order.
-void render_pages(const std::vector<PageTask>& tasks, const std::vector<const Image*>& inputs,
+void render_pages(const std::vector<PageTask>& tasks, const JobSource& source, const std::vector<const Image*>& inputs,
                   const ResampleOptions& options, std::vector<Image>& out, std::vector<ResampleStats>& page_stats,
                   Progress& prog) {
   // note: the biggest pages first (by texels, then faces), so the last page to finish is a small
@@ -1347,7 +1409,7 @@ void render_pages(const std::vector<PageTask>& tasks, const std::vector<const Im
   std::vector<size_t> order(out.size());
   for (size_t p = 0; p < order.size(); ++p) order[p] = p;
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    const size_t ta = out[a].pixels.size() + 64 * tasks[a].jobs.size(), tb = out[b].pixels.size() + 64 * tasks[b].jobs.size();
+    const size_t ta = out[a].pixels.size() + 64 * tasks[a].faces.size(), tb = out[b].pixels.size() + 64 * tasks[b].faces.size();
     return ta > tb;
   });
   const size_t nthreads = std::min<size_t>(static_cast<size_t>(thread_count()), out.size());
@@ -1365,7 +1427,7 @@ void render_pages(const std::vector<PageTask>& tasks, const std::vector<const Im
         const size_t k = next.fetch_add(1);
         if (k >= out.size() || prog.cancelled) break;
         const size_t p = order[k];
-        render_page(tasks[p], inputs, options, out[p], page_stats[p], prog, inner_threads);
+        render_page(tasks[p], source, inputs, options, out[p], page_stats[p], prog, inner_threads);
       }
     } catch (...) {
       std::lock_guard<std::mutex> lock(mtx);
@@ -1422,7 +1484,8 @@ std::vector<Image> resample_atlas(const TexturedMesh& mesh, const std::vector<Im
   prog.report(0);
   if (prog.cancelled) throw Cancelled();
   std::vector<ResampleStats> page_stats(out.size());
-  render_pages(tasks, inputs, options, out, page_stats, prog);
+  const JobSource source{&mesh, &atlas, &layout};
+  render_pages(tasks, source, inputs, options, out, page_stats, prog);
   if (prog.cancelled) throw Cancelled();
   prog.report(1.0);
   if (prog.cancelled) throw Cancelled();
