@@ -2,6 +2,10 @@
 
 #include <sys/resource.h>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include <fstream>
 #include <string>
 
@@ -24,6 +28,12 @@ double process_cpu_seconds() {
   if (getrusage(RUSAGE_SELF, &u) != 0) return 0;
   const auto sec = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
   return sec(u.ru_utime) + sec(u.ru_stime);
+}
+
+void release_free_memory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
 }
 
 bool reset_peak_rss() {
