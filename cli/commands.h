@@ -25,6 +25,11 @@ int run_tileset_cli(const PipelineConfig& config, const std::string& tileset, co
                     const std::vector<std::string>& contents = {});
 CLI::App* add_configs_command(CLI::App& app, int& exit_code);  // cmd_configs.cpp
 
+/// For `run` and `bench`, restarts the program once with glibc's malloc asking for transparent huge
+/// pages (cli/huge_pages.cpp; TEXDEFRAG_HUGE_PAGES=0 turns it off). Called first in main(); returns
+/// when no restart is needed.
+void use_huge_pages(char** argv);
+
 /// `texdefrag --version`: version, source revision, compiler, formats and optional features
 /// (cmd_version.cpp, from the build's generated build_info.cpp).
 std::string version_text();

@@ -97,6 +97,7 @@ int guarded(F&& body) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  cli::use_huge_pages(argv);
   CLI::App app{"texdefrag: texture defragmentation of photogrammetric building models"};
   app.require_subcommand(1);
   app.set_version_flag("--version,-V", cli::version_text());
