@@ -4,6 +4,7 @@
 #include "texdefrag/io/model_format.h"
 #include "texdefrag/io/obj.h"
 #include "texdefrag/testing/fixtures.h"
+#include "texdefrag/util/parallel.h"
 
 #include <gtest/gtest.h>
 
@@ -202,4 +203,111 @@ TEST(ModelFormat, ObjWritesWhatWriteObjWrites) {
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("tex.png"), std::string::npos) << e.what();
   }
+}
+
+namespace {
+
+/// A textured page: gradient plus deterministic noise (so JPEG bytes grow with quality).
+Image noisy(int w, int h, unsigned seed) {
+  Image img = gradient(w, h);
+  for (size_t i = 0; i < img.pixels.size(); ++i) {
+    seed = seed * 1103515245u + 12345u;
+    img.pixels[i] = static_cast<uint8_t>((img.pixels[i] + ((seed >> 16) % 48)) & 0xFF);
+  }
+  return img;
+}
+
+size_t total_jpeg_bytes(const std::vector<const Image*>& pages, int q) {
+  size_t n = 0;
+  for (const Image* p : pages) n += encode_jpeg(*p, q, JpegSubsampling::S444).size();
+  return n;
+}
+
+}  // namespace
+
+// encode_jpeg gives the bytes write_image writes.
+TEST(JpegQualityFit, EncodeJpegIsWhatWriteImageWrites) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  const Image img = noisy(40, 24, 1);
+  for (JpegSubsampling s : {JpegSubsampling::S444, JpegSubsampling::S420}) {
+    write_image(dir + "/a.jpg", img, ImageFormat::Jpeg, 91, s);
+    const std::vector<uint8_t> mem = encode_jpeg(img, 91, s);
+    EXPECT_EQ(std::string(mem.begin(), mem.end()), slurp(dir + "/a.jpg"));
+  }
+  EXPECT_THROW(encode_jpeg(img, 0, JpegSubsampling::S444), ImageError);
+  EXPECT_THROW(encode_jpeg(Image{}, 90, JpegSubsampling::S444), ImageError);
+}
+
+// The search's invariants on small pages, for budgets between every pair of qualities: the bytes
+// reported are those measured at the quality chosen and within the cap; the next quality up is
+// over the cap; the same answer with 1 and 2 threads; the floor is never lowered.
+TEST(JpegQualityFit, HighestQualityWithinTheBytesCapDeterministically) {
+  const Image a = noisy(64, 48, 7), b = noisy(33, 70, 9);
+  const std::vector<const Image*> pages = {&a, &b};
+  std::vector<size_t> bytes(101, 0);
+  for (int q = 70; q <= 100; ++q) bytes[static_cast<size_t>(q)] = total_jpeg_bytes(pages, q);
+  for (int q = 70; q < 100; ++q) {
+    const size_t budget = bytes[static_cast<size_t>(q)] + 1;
+    set_thread_count(1);
+    const JpegQualityFit one = fit_jpeg_quality(pages, 70, 100, JpegSubsampling::S444, budget);
+    set_thread_count(2);
+    const JpegQualityFit two = fit_jpeg_quality(pages, 70, 100, JpegSubsampling::S444, budget);
+    ASSERT_TRUE(one.within_budget) << q;
+    EXPECT_LE(one.bytes, budget) << q;
+    EXPECT_EQ(one.bytes, bytes[static_cast<size_t>(one.quality)]) << q;
+    EXPECT_GE(one.quality, q) << q;  // q itself fits
+    if (one.quality < 100) {
+      EXPECT_GT(bytes[static_cast<size_t>(one.quality) + 1], budget) << q;
+    }
+    EXPECT_EQ(one.quality, two.quality) << q;
+    EXPECT_EQ(one.bytes, two.bytes) << q;
+    EXPECT_EQ(one.probes, two.probes) << q;
+    EXPECT_LE(one.probes, 2 + 3 * 4) << q;
+  }
+  set_thread_count(0);
+  const JpegQualityFit all = fit_jpeg_quality(pages, 70, 100, JpegSubsampling::S444, bytes[100]);
+  EXPECT_EQ(all.quality, 100);
+  EXPECT_EQ(all.probes, 2);  // both ends are encoded in the first round
+  const JpegQualityFit none = fit_jpeg_quality(pages, 70, 100, JpegSubsampling::S444, bytes[70] - 1);
+  EXPECT_EQ(none.quality, 70);  // never below the floor
+  EXPECT_FALSE(none.within_budget);
+  EXPECT_EQ(none.bytes, bytes[70]);
+  EXPECT_THROW(fit_jpeg_quality(pages, 90, 80, JpegSubsampling::S444, 1), ImageError);
+}
+
+// fit_page_quality raises only a quality matched from the input, up to max_quality, against the
+// input's page bytes; the options that fix the quality are left alone.
+TEST(JpegQualityFit, PageQualityIsRaisedOnlyFromTheInputsEstimate) {
+  const Image page = noisy(64, 64, 3);
+  const size_t q80 = encode_jpeg(page, 80, JpegSubsampling::S444).size();
+  const size_t q95 = encode_jpeg(page, 95, JpegSubsampling::S444).size();
+  LoadedModel m;
+  m.mesh.pages.resize(1);
+  m.mesh.faces.resize(1);
+  m.mesh.faces[0].page = 0;
+  m.page_encodings = {{"jpeg", 80, q95, JpegSubsampling::S420}};
+  const std::vector<Image> out = {page};
+  PageWriteOptions po = choose_page_options(m, "input", 60, true);
+  EXPECT_TRUE(po.jpeg_quality_from_input);
+  JpegQualityFit fit = fit_page_quality(m, out, po, 100);
+  EXPECT_GE(po.jpeg_quality, 95);
+  EXPECT_LT(po.jpeg_quality, 100);
+  EXPECT_LE(fit.bytes, q95);
+  po = choose_page_options(m, "input", 60, true);
+  fit_page_quality(m, out, po, 90);  // capped
+  EXPECT_EQ(po.jpeg_quality, 90);
+  po = choose_page_options(m, "input", 60, false);  // the quality option, not the input's
+  EXPECT_EQ(fit_page_quality(m, out, po, 100).probes, 0);
+  EXPECT_EQ(po.jpeg_quality, 60);
+  po = choose_page_options(m, "png", 60, true);
+  EXPECT_EQ(fit_page_quality(m, out, po, 100).probes, 0);
+  m.page_encodings[0].bytes = q80 - 1;  // even the estimate is over: kept, never lowered
+  po = choose_page_options(m, "input", 60, true);
+  fit = fit_page_quality(m, out, po, 100);
+  EXPECT_EQ(po.jpeg_quality, 80);
+  EXPECT_FALSE(fit.within_budget);
+  m.page_encodings[0].bytes = 0;  // unknown input bytes: nothing to fit against
+  po = choose_page_options(m, "input", 60, true);
+  EXPECT_EQ(fit_page_quality(m, out, po, 100).probes, 0);
+  EXPECT_EQ(po.jpeg_quality, 80);
 }

@@ -121,9 +121,31 @@ PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& i
   const bool all_jpeg = textured_pages > 0 && jpeg_pages == textured_pages;
   PageWriteOptions o;
   o.format = image_format == "jpeg" || (image_format == "input" && all_jpeg) ? ImageFormat::Jpeg : ImageFormat::Png;
-  o.jpeg_quality = match_input_quality && quality ? *quality : jpeg_quality;
+  o.jpeg_quality_from_input = match_input_quality && quality.has_value();
+  o.jpeg_quality = o.jpeg_quality_from_input ? *quality : jpeg_quality;
   o.jpeg_subsampling = forced ? *forced : finest.value_or(JpegSubsampling::S444);
   return o;
+}
+
+JpegQualityFit fit_page_quality(const LoadedModel& in, const std::vector<Image>& pages, PageWriteOptions& po,
+                                int max_quality) {
+  JpegQualityFit none;
+  none.quality = po.jpeg_quality;
+  if (po.format != ImageFormat::Jpeg || !po.jpeg_quality_from_input || max_quality < po.jpeg_quality || pages.empty())
+    return none;
+  std::vector<uint8_t> used(in.mesh.pages.size(), 0);
+  for (const Face& f : in.mesh.faces)
+    if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
+  for (size_t p = 0; p < used.size(); ++p)
+    if (used[p] && (p >= in.page_encodings.size() || in.page_encodings[p].bytes == 0)) return none;
+  size_t budget = 0;
+  for (const PageEncoding& e : in.page_encodings) budget += e.bytes;
+  if (budget == 0) return none;
+  std::vector<const Image*> images;
+  for (const Image& image : pages) images.push_back(&image);
+  const JpegQualityFit fit = fit_jpeg_quality(images, po.jpeg_quality, max_quality, po.jpeg_subsampling, budget);
+  po.jpeg_quality = fit.quality;
+  return fit;
 }
 
 }  // namespace texdefrag

@@ -68,6 +68,10 @@ const StageInfo& writer_stage_info() {
        opt_int("jpeg_quality", 95, "JPEG quality of JPEG pages when no input quality is matched").range(1, 100),
        opt_bool("match_input_quality", true,
                 "JPEG pages take the quality estimated from the input JPEG pages' quantisation tables"),
+       opt_enum("jpeg_quality_fit", "input_bytes", {"input_bytes", "none"},
+                "JPEG pages at the input's estimated quality: 'input_bytes' raises it to the highest quality (up to "
+                "jpeg_max_quality) whose page bytes stay at or below the input's page bytes; 'none' keeps the estimate"),
+       opt_int("jpeg_max_quality", 100, "Highest quality jpeg_quality_fit may raise JPEG pages to").range(1, 100),
        opt_enum("jpeg_subsampling", "4:4:4", {"4:4:4", "4:2:2", "4:2:0", "input"},
                 "Chroma subsampling of JPEG pages; 'input': the finest of the input JPEG pages' (4:4:4 when unknown)"),
        opt_string("name", "", "Output file stem; empty keeps the input's stem"),

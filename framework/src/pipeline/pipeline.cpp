@@ -492,6 +492,10 @@ void write_step(json& report, const PipelineConfig& config, const RunOptions& op
                                               config.output.get_bool("match_input_quality"),
                                               config.output.get_string("jpeg_subsampling"));
     po.output_options = config.output.values();
+    const int matched_quality = po.jpeg_quality;
+    JpegQualityFit fit;
+    if (config.output.get_string("jpeg_quality_fit") == "input_bytes")
+      fit = fit_page_quality(model, out_pages, po, static_cast<int>(config.output.get_int("jpeg_max_quality")));
     const std::string ext = po.format == ImageFormat::Jpeg ? "jpg" : "png";
     TexturedMesh out = make_output_mesh(model.mesh, ctx.atlas, ctx.layout, stem, ext, options.output_dir);
     const WriteResult wr = options.write ? options.write(model, out, out_pages, po)
@@ -501,6 +505,9 @@ void write_step(json& report, const PipelineConfig& config, const RunOptions& op
     if (po.format == ImageFormat::Jpeg) {
       node["jpeg_quality"] = po.jpeg_quality;
       node["jpeg_subsampling"] = jpeg_subsampling_name(po.jpeg_subsampling);
+      if (po.jpeg_quality_from_input) node["jpeg_quality_estimated"] = matched_quality;
+      if (fit.probes > 0)
+        node["jpeg_quality_fit"] = {{"probes", fit.probes}, {"bytes", fit.bytes}, {"within_input_bytes", fit.within_budget}};
     }
     node["file"] = wr.main_file;
     node["page_bytes"] = wr.page_bytes;

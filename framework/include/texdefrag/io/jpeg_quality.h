@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "texdefrag/io/image.h"
 
@@ -33,5 +34,33 @@ std::optional<JpegSubsampling> read_jpeg_subsampling(const uint8_t* data, size_t
 
 /// read_jpeg_subsampling over a file's first 64 KiB. Empty when unreadable or not a JPEG.
 std::optional<JpegSubsampling> read_jpeg_subsampling_of_file(const std::string& path);
+
+/// The bytes write_image writes for `image` as a JPEG at these settings (the same encoder), in
+/// memory. Throws ImageError starting with `name` when encoding fails.
+std::vector<uint8_t> encode_jpeg(const Image& image, int quality, JpegSubsampling subsampling,
+                                 const std::string& name = "page");
+
+/// What fit_jpeg_quality chose.
+struct JpegQualityFit {
+  int quality = 0;             ///< the quality chosen
+  size_t bytes = 0;            ///< total encoded bytes of the pages at `quality` (measured, not estimated)
+  int probes = 0;              ///< qualities tried (each encodes every page once)
+  bool within_budget = false;  ///< bytes <= budget
+};
+
+/// The highest JPEG quality in [min_quality, max_quality] (1 <= min <= max <= 100) at which the
+/// pages' total encoded bytes (encode_jpeg of every page) are at most `budget`.
+/// Search: max_quality and min_quality are encoded first (max fits: taken; min over: min is taken,
+/// within_budget false: the caller's floor is never lowered); then each round encodes up to 3
+/// qualities evenly inside the open interval (fitting, over) and keeps the sub-interval between the
+/// highest fitting and the lowest over, until they are adjacent. Encodes run in parallel over
+/// (page, quality) pairs (util/parallel.h); the qualities tried depend on the measured bytes only,
+/// never on the thread count, so the result is deterministic.
+/// Guarantees: `bytes` is the measured total at `quality`; within_budget => bytes <= budget;
+/// quality >= min_quality. JPEG bytes grow with quality almost always but not by theorem: where
+/// they do not, the search still returns a quality whose measured bytes fit, and the next quality
+/// it tried above it did not fit.
+JpegQualityFit fit_jpeg_quality(const std::vector<const Image*>& pages, int min_quality, int max_quality,
+                                JpegSubsampling subsampling, size_t budget);
 
 }  // namespace texdefrag

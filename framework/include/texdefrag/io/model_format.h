@@ -19,6 +19,7 @@
 
 #include "texdefrag/core/mesh.h"
 #include "texdefrag/io/image.h"
+#include "texdefrag/io/jpeg_quality.h"
 #include "texdefrag/io/output_set.h"
 
 #include <nlohmann/json.hpp>
@@ -89,6 +90,8 @@ struct PageWriteOptions {
   ImageFormat format = ImageFormat::Png;
   int jpeg_quality = 95;  ///< [1, 100], used for Jpeg
   JpegSubsampling jpeg_subsampling = JpegSubsampling::S444;  ///< used for Jpeg
+  /// True when jpeg_quality is the one estimated from the input pages (match_input_quality).
+  bool jpeg_quality_from_input = false;
   /// The validated `output` section of the configuration, for format-specific keys (e.g. the glTF
   /// writer's output.draco); empty object when not given.
   json output_options = json::object();
@@ -159,5 +162,15 @@ PageEncoding page_encoding_of_file(const std::string& path);
 ///   known). Anything else is a FormatError.
 PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& image_format, int jpeg_quality,
                                      bool match_input_quality, const std::string& jpeg_subsampling = "4:4:4");
+
+/// output.jpeg_quality_fit "input_bytes" (docs/io.md "Page format"): when `po` writes JPEG pages
+/// at the quality estimated from the input (po.jpeg_quality_from_input), raises po.jpeg_quality to
+/// the highest quality in [that estimate, max_quality] at which `pages` encode to at most the
+/// input's page bytes (the sum of in.page_encodings' bytes, as the run report's input_page_bytes),
+/// by fit_jpeg_quality (io/jpeg_quality.h). The quality is never lowered below the estimate.
+/// Nothing is searched (probes 0, po unchanged) for PNG pages, a quality not from the input,
+/// max_quality below the estimate, no page, or a textured input page whose bytes are unknown.
+JpegQualityFit fit_page_quality(const LoadedModel& in, const std::vector<Image>& pages, PageWriteOptions& po,
+                                int max_quality);
 
 }  // namespace texdefrag
