@@ -1,7 +1,11 @@
 // glTF 2.0 / GLB reader and writer on tiny files built with tinygltf's writer and Draco's encoder.
 #include "gltf_test_util.h"
 
+#include "texdefrag/pipeline/pipeline.h"
+
 #include <nlohmann/json.hpp>
+
+#include <functional>
 
 namespace fs = std::filesystem;
 using namespace texdefrag;
@@ -397,4 +401,131 @@ TEST(Gltf, GltfJsonWithEmbeddedBuffersRoundTrips) {
   commit(write_gltf(g, g.mesh, same_pages(g), p), p);
   expect_same_geometry(g, read_gltf(dir + "/out/a.gltf"));
   TEXDEFRAG_EXPECT_VALID_GLTF(std::vector<std::string>{dir + "/out/a.gltf"});
+}
+
+namespace {
+
+/// The roof of test_osgb's NodeTransformsAreAppliedForMeasuringOnly as glTF data: 8x8 quads, each
+/// its own chart, a ridge along y at x = 1 (x scaled by `sx` in the file).
+GridData roof(float sx) {
+  GridData g;
+  for (int i = 0; i < 8; ++i)
+    for (int j = 0; j < 8; ++j) {
+      const auto base = static_cast<uint32_t>(g.pos.size() / 3);
+      for (int c = 0; c < 4; ++c) {
+        const int di = c == 1 || c == 2, dj = c >= 2;
+        const float x = 0.25f * static_cast<float>(i + di), y = 0.5f * static_cast<float>(j + dj);
+        g.pos.insert(g.pos.end(), {sx * x, y, 0.3f * std::min(x, 2.0f - x)});
+        g.uv.insert(g.uv.end(), {(static_cast<float>(i) + 0.1f + 0.8f * static_cast<float>(di)) / 8.0f,
+                                 (static_cast<float>(j) + 0.1f + 0.8f * static_cast<float>(dj)) / 8.0f});
+      }
+      for (uint32_t k : {0u, 1u, 2u, 0u, 2u, 3u}) g.idx.push_back(base + k);
+    }
+  return g;
+}
+
+/// A GLB of the roof (x stored scaled by `sx`) on the mesh of node 1, child of node 0: node 0
+/// gets `parent`, node 1 `child` (each a function setting TRS or matrix on the node).
+std::string roof_glb(const std::string& path, float sx, const std::function<void(tinygltf::Node&)>& parent,
+                     const std::function<void(tinygltf::Node&)>& child) {
+  tinygltf::Model m = base_model();
+  m.meshes[0].primitives.push_back(add_primitive(m, roof(sx), add_textured_material(m, png_bytes(fs::path(path).parent_path().parent_path().string(), 64, 64))));
+  tinygltf::Node& top = m.nodes[0];
+  top.mesh = -1;
+  top.matrix.clear();
+  top.children = {1};
+  parent(top);
+  tinygltf::Node leaf;
+  leaf.mesh = 0;
+  child(leaf);
+  m.nodes.push_back(leaf);
+  save(m, path);
+  return path;
+}
+
+/// The POSITION bytes of every face corner, in face order, as stored in the file.
+std::vector<uint8_t> stored_corner_positions(const std::string& path) {
+  const GltfModel g = read_gltf(path);
+  std::vector<uint8_t> out;
+  for (const auto& P : (*g.documents)[0].primitives)
+    for (const auto& a : P.attributes)
+      if (a.first == "POSITION")
+        for (uint32_t v : P.tri) {
+          const size_t n = a.second.elem_size();
+          out.insert(out.end(), a.second.data.begin() + static_cast<std::ptrdiff_t>(v * n),
+                     a.second.data.begin() + static_cast<std::ptrdiff_t>((v + 1) * n));
+        }
+  return out;
+}
+
+nlohmann::json run_best(const std::string& input, const std::string& out) {
+  const PipelineConfig cfg = load_config((fs::path(source_dir()) / "configs" / "best.json").string());
+  RunOptions ro;
+  ro.input = input;
+  ro.output_dir = out;
+  return run_pipeline(cfg, ro);
+}
+
+}  // namespace
+
+// A node hierarchy scaling x by 2 above a mesh (a child's TRS scale under a translated parent, or
+// a matrix): texdefrag measures the mesh as the user sees it (io/measure_transform.h), so every
+// stage gives what it gives on the same mesh stored pre-scaled, while the file written keeps the
+// stored positions bit for bit. Rigid hierarchies (rotation + translation) read as stored.
+TEST(Gltf, NodeTransformsAreAppliedForMeasuringOnly) {
+  const std::string dir = temp_dir();
+  auto none = [](tinygltf::Node&) {};
+  const std::string scaled = roof_glb(dir + "/in/scaled.glb", 1, [](tinygltf::Node& n) { n.translation = {5e5, 30, -4e6}; },
+                                      [](tinygltf::Node& n) { n.scale = {2, 1, 1}; });
+  const std::string matrix = roof_glb(dir + "/in/matrix.glb", 1, none, [](tinygltf::Node& n) {
+    n.matrix = {2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 7, 8, 9, 1};
+  });
+  const std::string prescaled = roof_glb(dir + "/in/prescaled.glb", 2, none, none);
+  const std::string plain = roof_glb(dir + "/in/plain.glb", 1, none, none);
+  const std::string rigid = roof_glb(dir + "/in/rigid.glb", 1, [](tinygltf::Node& n) { n.rotation = {0.1, 0.7, 0.2, 0.3}; },
+                                     [](tinygltf::Node& n) {
+                                       n.rotation = {0, 0, 0.6, 0.8};
+                                       n.translation = {1, 2, 3};
+                                     });
+
+  const GltfModel a = read_gltf(scaled), am = read_gltf(matrix), b = read_gltf(prescaled);
+  ASSERT_EQ(a.mesh.positions.size(), 256u);
+  EXPECT_EQ(a.positions_stretched, 256u);
+  EXPECT_EQ(a.stats["positions_stretched"], 256);
+  EXPECT_EQ(b.positions_stretched, 0u);
+  EXPECT_EQ(a.mesh.positions, b.mesh.positions);
+  EXPECT_EQ(am.mesh.positions, b.mesh.positions);
+  const GltfModel r = read_gltf(rigid), p = read_gltf(plain);
+  EXPECT_EQ(r.positions_stretched, 0u);
+  EXPECT_EQ(r.mesh.positions, p.mesh.positions);  // bit for bit as stored
+
+  const nlohmann::json ra = run_best(scaled, dir + "/out_scaled");
+  const nlohmann::json rb = run_best(prescaled, dir + "/out_prescaled");
+  const nlohmann::json rp = run_best(plain, dir + "/out_plain");
+  EXPECT_EQ(ra["stages"]["read"]["positions_stretched"], 256);
+  const auto& da = ra["stages"]["detectors.region_growing"];
+  EXPECT_EQ(da["angle_rejections"], rb["stages"]["detectors.region_growing"]["angle_rejections"]);
+  // Unscaled, the ridge is 33 degrees (split by the detector's 25-degree threshold); scaled 2x in
+  // x it is 17 degrees.
+  EXPECT_NE(da["angle_rejections"], rp["stages"]["detectors.region_growing"]["angle_rejections"]);
+  for (const char* k : {"charts_out", "distortion_arap"})
+    EXPECT_EQ(ra["stages"]["mergers.arap"][k], rb["stages"]["mergers.arap"][k]) << k;
+  EXPECT_EQ(ra["output_stats"]["megapixels"], rb["output_stats"]["megapixels"]);
+  EXPECT_EQ(read_gltf(dir + "/out_scaled/scaled.glb").mesh.texcoords, read_gltf(dir + "/out_prescaled/prescaled.glb").mesh.texcoords);
+  // Written: the stored, unscaled positions, bit for bit, and the nodes as they were.
+  const std::vector<uint8_t> in_stored = stored_corner_positions(scaled), out_stored = stored_corner_positions(dir + "/out_scaled/scaled.glb");
+  ASSERT_EQ(in_stored.size(), 128u * 3 * 12);
+  EXPECT_EQ(in_stored, out_stored);
+  EXPECT_EQ((*read_gltf(dir + "/out_scaled/scaled.glb").documents)[0].json["nodes"], (*a.documents)[0].json["nodes"]);
+  TEXDEFRAG_EXPECT_VALID_GLTF(std::vector<std::string>{dir + "/out_scaled/scaled.glb"});
+}
+
+TEST(Gltf, BadNodeHierarchiesAreErrorsNamingTheFile) {
+  const std::string dir = temp_dir();
+  tinygltf::Model m = base_model();
+  m.meshes[0].primitives.push_back(add_primitive(m, grid(1, 1), add_textured_material(m, png_bytes(dir, 8, 8))));
+  m.nodes[0].children = {0};  // its own child
+  save(m, dir + "/cycle.glb");
+  std::string e = gltf_error(dir + "/cycle.glb");
+  EXPECT_NE(e.find("cycle.glb: node 0 is its own ancestor"), std::string::npos) << e;
 }

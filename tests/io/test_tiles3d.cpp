@@ -279,3 +279,69 @@ TEST(Tiles3d, ModelsRunOneByOneThenFinishedEqualTheWholeRun) {
   EXPECT_EQ(compare_tilesets(in, out + "/tileset.json"), std::vector<std::string>{});
   EXPECT_EQ(check_tileset(out + "/tileset.json"), std::vector<std::string>{});
 }
+
+// Tile transforms (through external tilesets) and the glTF y-up to z-up turn are applied for
+// measuring only (GltfInput::outer_linear, docs/io.md "Node transforms"): a root transform that
+// scales the tile z (up) axis by 3 stretches glTF y (its up axis) by 3 in what the stages measure;
+// an external tileset saying asset.gltfUpAxis "Z" stretches glTF z instead; the files written keep
+// their stored positions bit for bit.
+TEST(Tiles3d, TileTransformsAreAppliedForMeasuringOnly) {
+  const std::string dir = temp_dir();
+  put_file(dir + "/in/b.glb", grid_glb(dir, 2, 1.0f));
+  put_file(dir + "/in/sub/c.glb", grid_glb(dir, 2, 2.0f));
+  const ojson box = {{"box", {0, 0, 0, 100, 0, 0, 0, 100, 0, 0, 0, 100}}};
+  ojson ext = {{"asset", {{"version", "1.0"}, {"gltfUpAxis", "Z"}}}, {"geometricError", 1},
+               {"root", {{"boundingVolume", box}, {"geometricError", 0}, {"content", {{"uri", "c.glb"}}}}}};
+  put_file(dir + "/in/sub/ext.json", ext.dump(2));
+  const double c = std::cos(0.5), s = std::sin(0.5);  // a rigid turn about z on the child tile
+  ojson ts = {{"asset", {{"version", "1.0"}}}, {"geometricError", 10},
+              {"root",
+               {{"boundingVolume", box}, {"geometricError", 5}, {"refine", "ADD"},
+                {"transform", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 3, 0, 100, 200, 300, 1}},
+                {"children",
+                 {{{"boundingVolume", box}, {"geometricError", 1}, {"content", {{"uri", "b.glb"}}},
+                   {"transform", {c, s, 0, 0, -s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}}},
+                  {{"boundingVolume", box}, {"geometricError", 1}, {"content", {{"uri", "sub/ext.json"}}}}}}}}};
+  put_file(dir + "/in/tileset.json", ts.dump(2));
+
+  const Tileset t = read_tileset(dir + "/in/tileset.json");
+  ASSERT_EQ(t.contents.size(), 2u);
+  // glTF (x, y, z) -> tile (x, -z, y), turned about z, then tile z scaled by 3.
+  Mat3 turn_y, turn_z, scale_z = Mat3::Identity();
+  turn_y << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  turn_z << c, -s, 0, s, c, 0, 0, 0, 1;
+  scale_z(2, 2) = 3;
+  EXPECT_LT((t.contents[0].measure_linear - scale_z * turn_z * turn_y).norm(), 1e-15);
+  EXPECT_LT((t.contents[1].measure_linear - scale_z).norm(), 1e-15);  // gltfUpAxis Z: no turn
+
+  const GltfModel plain_b = read_gltf(dir + "/in/b.glb"), plain_c = read_gltf(dir + "/in/sub/c.glb");
+  const GltfModel seen_b = read_gltf({{dir + "/in/b.glb", {}, "", t.contents[0].measure_linear}});
+  const GltfModel seen_c = read_gltf({{dir + "/in/sub/c.glb", {}, "", t.contents[1].measure_linear}});
+  ASSERT_EQ(seen_b.mesh.positions.size(), plain_b.mesh.positions.size());
+  EXPECT_EQ(seen_b.positions_stretched, seen_b.mesh.positions.size());
+  for (size_t i = 0; i < plain_b.mesh.positions.size(); ++i) {
+    const Vec3 p = plain_b.mesh.positions[i], q = plain_c.mesh.positions[i];
+    EXPECT_LT((seen_b.mesh.positions[i] - Vec3(p.x(), 3 * p.y(), p.z())).norm(), 1e-12) << i;  // glTF y is up
+    EXPECT_LT((seen_c.mesh.positions[i] - Vec3(q.x(), q.y(), 3 * q.z())).norm(), 1e-12) << i;  // glTF z is up
+  }
+
+  TilesetRunOptions o;
+  o.tileset = dir + "/in/tileset.json";
+  o.output_dir = dir + "/out";
+  run_tileset(repack(), o);
+  for (const char* name : {"b", "sub/c"}) {
+    const nlohmann::json report = nlohmann::json::parse(file_bytes(dir + "/out/" + name + ".report.json"));
+    EXPECT_EQ(report["stages"]["read"]["positions_stretched"], seen_b.mesh.positions.size()) << name;
+    // Written: the stored positions, bit for bit.
+    const GltfModel gi = read_gltf(dir + "/in/" + name + ".glb"), go = read_gltf(dir + "/out/" + name + ".glb");
+    ASSERT_EQ(gi.mesh.faces.size(), go.mesh.faces.size());
+    for (size_t f = 0; f < gi.mesh.faces.size(); ++f)
+      for (int k = 0; k < 3; ++k) ASSERT_EQ(gi.mesh.corner_position(f, k), go.mesh.corner_position(f, k));
+  }
+  EXPECT_EQ(compare_tilesets(dir + "/in/tileset.json", dir + "/out/tileset.json"), std::vector<std::string>{});
+
+  ts["root"]["transform"] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0};  // 15 numbers
+  put_file(dir + "/in/tileset.json", ts.dump(2));
+  const std::string e = tileset_error(dir + "/in/tileset.json");
+  EXPECT_NE(e.find("tileset.json: a tile's transform is not an array of 16 numbers"), std::string::npos) << e;
+}

@@ -26,6 +26,7 @@ LoadedModel loaded_from(GltfModel g, const std::string& root) {
   m.path = g.inputs.front().path;
   m.format = "gltf";
   m.mesh = g.mesh;
+  m.positions_stretched = g.positions_stretched;
   m.page_images.resize(g.mesh.pages.size());
   for (size_t p = 0; p < g.mesh.pages.size(); ++p) {
     const GltfPageSource& s = g.page_source[p];
@@ -56,6 +57,7 @@ LoadedModel loaded_from(GltfModel g, const std::string& root) {
 }  // namespace
 
 std::vector<uint8_t> encode_image(const Image& image, const PageWriteOptions& options) {
+  if (options.format == ImageFormat::Jpeg) return encode_jpeg(image, options.jpeg_quality, options.jpeg_subsampling);
   static std::atomic<unsigned> counter{0};
   const fs::path tmp = fs::temp_directory_path() / ("texdefrag-page-" + std::to_string(::getpid()) + "-" +
                                                     std::to_string(counter++) +

@@ -3,14 +3,18 @@
 #include "gltf_internal.h"
 
 #include "texdefrag/io/image.h"
+#include "texdefrag/io/measure_transform.h"
 
 #include <tiny_gltf.h>
+
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <unistd.h>
 
@@ -550,8 +554,98 @@ std::pair<Document, tinygltf::Model> load_document(const GltfInput& in) {
   return {std::move(d), std::move(m)};
 }
 
+/// The linear part of a node's local matrix: `matrix` (16 numbers, column-major) or R(rotation) *
+/// diag(scale) of its TRS (the translation is no part of it). Throws GltfError naming the node.
+Mat3 node_linear(const Document& d, const ojson& node, size_t index) {
+  const std::string where = d.path + ": node " + std::to_string(index);
+  auto numbers = [&](const char* key, size_t n) {
+    std::vector<double> v;
+    const ojson& a = node[key];
+    if (!a.is_array() || a.size() != n) throw GltfError(where + ": '" + key + "' is not an array of " + std::to_string(n) + " numbers");
+    for (const auto& x : a) {
+      if (!x.is_number() || !std::isfinite(x.get<double>()))
+        throw GltfError(where + ": '" + key + "' is not an array of " + std::to_string(n) + " finite numbers");
+      v.push_back(x.get<double>());
+    }
+    return v;
+  };
+  Mat3 m = Mat3::Identity();
+  if (node.contains("matrix")) {
+    const std::vector<double> t = numbers("matrix", 16);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) m(r, c) = t[static_cast<size_t>(c * 4 + r)];
+    return m;
+  }
+  if (node.contains("rotation")) {
+    const std::vector<double> q = numbers("rotation", 4);  // x, y, z, w
+    const Eigen::Quaterniond quat(q[3], q[0], q[1], q[2]);
+    if (quat.norm() == 0.0) throw GltfError(where + ": 'rotation' is a zero quaternion");
+    m = quat.normalized().toRotationMatrix();
+  }
+  if (node.contains("scale")) {
+    const std::vector<double> s = numbers("scale", 3);
+    m = m * Eigen::Vector3d(s[0], s[1], s[2]).asDiagonal();
+  }
+  return m;
+}
+
+/// Per glTF mesh of `d`: the stretch (io/measure_transform.h) of outer * the linear part of the
+/// mesh's first node's world matrix. Nodes are visited scene by scene (the default scene first,
+/// then the others in order), then nodes that no scene reaches, depth first; a mesh no node names
+/// gets the stretch of `outer` alone. Throws GltfError naming the file for a node index out of
+/// range or a node reached twice on one path (a cycle).
+std::vector<Mat3> mesh_stretches(const Document& d, const Mat3& outer) {
+  const ojson empty = ojson::array();
+  const ojson& nodes = d.json.contains("nodes") ? d.json["nodes"] : empty;
+  const size_t n_meshes = d.json.contains("meshes") ? d.json["meshes"].size() : 0;
+  std::vector<Mat3> stretch(n_meshes, Mat3::Identity());
+  std::vector<uint8_t> assigned(n_meshes, 0), visited(nodes.size(), 0), on_path(nodes.size(), 0);
+  std::function<void(const ojson&, const Mat3&, const std::string&)> visit = [&](const ojson& index, const Mat3& parent,
+                                                                                  const std::string& from) {
+    if (!index.is_number_integer() || index.get<long long>() < 0 || static_cast<size_t>(index.get<long long>()) >= nodes.size())
+      throw GltfError(d.path + ": " + from + " names node " + index.dump() + ", out of range (" + std::to_string(nodes.size()) + " nodes)");
+    const size_t i = static_cast<size_t>(index.get<long long>());
+    if (on_path[i]) throw GltfError(d.path + ": node " + std::to_string(i) + " is its own ancestor (" + from + ")");
+    const ojson& node = nodes[i];
+    const Mat3 world = parent * node_linear(d, node, i);
+    visited[i] = on_path[i] = 1;
+    if (node.contains("mesh") && node["mesh"].is_number_integer()) {
+      const long long m = node["mesh"].get<long long>();
+      if (m >= 0 && static_cast<size_t>(m) < n_meshes && !assigned[static_cast<size_t>(m)]) {
+        assigned[static_cast<size_t>(m)] = 1;
+        stretch[static_cast<size_t>(m)] = stretch_part(world);
+      }
+    }
+    if (node.contains("children"))
+      for (const auto& c : node["children"]) visit(c, world, "children of node " + std::to_string(i));
+    on_path[i] = 0;
+  };
+  const ojson& scenes = d.json.contains("scenes") ? d.json["scenes"] : empty;
+  std::vector<size_t> order;
+  const long long first = d.json.value("scene", 0LL);
+  if (first >= 0 && static_cast<size_t>(first) < scenes.size()) order.push_back(static_cast<size_t>(first));
+  for (size_t s = 0; s < scenes.size(); ++s)
+    if (order.empty() || s != order.front()) order.push_back(s);
+  for (size_t s : order)
+    if (scenes[s].contains("nodes"))
+      for (const auto& n : scenes[s]["nodes"]) visit(n, outer, "scene " + std::to_string(s));
+  std::vector<uint8_t> is_child(nodes.size(), 0);
+  for (const auto& node : nodes)
+    if (node.contains("children"))
+      for (const auto& c : node["children"])
+        if (c.is_number_integer() && c.get<long long>() >= 0 && static_cast<size_t>(c.get<long long>()) < nodes.size())
+          is_child[static_cast<size_t>(c.get<long long>())] = 1;
+  for (size_t i = 0; i < nodes.size(); ++i)
+    if (!visited[i] && !is_child[i]) visit(ojson(i), outer, "the node list");
+  const Mat3 outer_stretch = stretch_part(outer);
+  for (size_t m = 0; m < n_meshes; ++m)
+    if (!assigned[m]) stretch[m] = outer_stretch;
+  return stretch;
+}
+
 /// Adds the faces of one primitive to the model's mesh.
-void add_faces(GltfModel& model, int file, Primitive& P, int material) {
+/// stretch: the mesh's node transform stretch; positions are multiplied by it for measuring.
+void add_faces(GltfModel& model, int file, Primitive& P, int material, const Mat3& stretch) {
   TexturedMesh& mesh = model.mesh;
   const std::string where = prim_name((*model.documents)[static_cast<size_t>(file)], P.mesh, P.prim);
   const RawAttribute* pos = find_attribute(P, "POSITION");
@@ -563,6 +657,7 @@ void add_faces(GltfModel& model, int file, Primitive& P, int material) {
     if (!p.allFinite()) throw GltfError(where + ": POSITION of vertex " + std::to_string(i) + " is not finite");
     mesh.positions.push_back(p);
   }
+  model.positions_stretched += apply_stretch(mesh.positions, v0, stretch);
   const RawAttribute* tc = nullptr;
   if (P.texcoord_set >= 0) {
     tc = find_attribute(P, "TEXCOORD_" + std::to_string(P.texcoord_set));
@@ -672,6 +767,7 @@ GltfModel read_gltf(const std::vector<GltfInput>& inputs, const GltfReadOptions&
     model.inputs.push_back(kept);
     docs->push_back(std::move(doc));
     Document& d = docs->back();
+    const std::vector<Mat3> stretches = mesh_stretches(d, inputs[fi].outer_linear);
     const ojson& meshes = d.json.contains("meshes") ? d.json["meshes"] : ojson::array();
     for (size_t mi = 0; mi < meshes.size(); ++mi) {
       const ojson& prims = meshes[mi].value("primitives", ojson::array());
@@ -740,7 +836,7 @@ GltfModel read_gltf(const std::vector<GltfInput>& inputs, const GltfReadOptions&
           }
           material = mit->second;
         }
-        add_faces(model, static_cast<int>(fi), P, material);
+        add_faces(model, static_cast<int>(fi), P, material, stretches[mi]);
         d.primitives.push_back(std::move(P));
       }
     }
@@ -762,6 +858,7 @@ GltfModel read_gltf(const std::vector<GltfInput>& inputs, const GltfReadOptions&
                  {"draco_primitives", draco_prims},
                  {"untouched_point_line_primitives", skipped_prims},
                  {"ktx2_pages_read_from_jpeg_png", ktx2_replaced},
+                 {"positions_stretched", model.positions_stretched},
                  {"faces", model.mesh.faces.size()},
                  {"pages", model.mesh.pages.size()}};
   return model;

@@ -65,10 +65,47 @@ std::vector<std::string> content_uris(const ojson& tile) {
   return out;
 }
 
-void walk_tiles(const ojson& tile, const std::function<void(const ojson&)>& fn) {
-  fn(tile);
+/// The linear part (upper 3x3) of a tile's `transform` (16 numbers, column-major); identity when
+/// the tile has none. Throws TilesetError naming the file when it is not 16 finite numbers.
+Mat3 tile_linear(const ojson& tile, const std::string& file) {
+  Mat3 m = Mat3::Identity();
+  if (!tile.contains("transform")) return m;
+  const ojson& t = tile["transform"];
+  if (!t.is_array() || t.size() != 16) throw TilesetError(file + ": a tile's transform is not an array of 16 numbers");
+  for (const auto& x : t)
+    if (!x.is_number() || !std::isfinite(x.get<double>()))
+      throw TilesetError(file + ": a tile's transform is not an array of 16 finite numbers");
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = t[static_cast<size_t>(c * 4 + r)].get<double>();
+  return m;
+}
+
+/// fn(tile, linear) for every tile, depth first; linear: the product of the transforms' linear
+/// parts from `parent` down to and including the tile's own.
+void walk_tiles(const ojson& tile, const Mat3& parent, const std::string& file,
+                const std::function<void(const ojson&, const Mat3&)>& fn) {
+  const Mat3 linear = parent * tile_linear(tile, file);
+  fn(tile, linear);
   if (tile.contains("children"))
-    for (const auto& c : tile["children"]) walk_tiles(c, fn);
+    for (const auto& c : tile["children"]) walk_tiles(c, linear, file, fn);
+}
+
+/// The turn 3D Tiles puts between a glTF content and its tile (glTF is y-up, tiles z-up): a
+/// rotation of +90 degrees about x for asset.gltfUpAxis "Y" (the default), -90 degrees about y for
+/// "X", none for "Z". Throws TilesetError naming the file for another value.
+Mat3 gltf_up_turn(const ojson& tileset, const std::string& file) {
+  std::string axis = "Y";
+  if (tileset.contains("asset") && tileset["asset"].is_object() && tileset["asset"].contains("gltfUpAxis")) {
+    const ojson& a = tileset["asset"]["gltfUpAxis"];
+    if (!a.is_string()) throw TilesetError(file + ": asset.gltfUpAxis is not a string");
+    axis = a.get<std::string>();
+  }
+  Mat3 m;
+  if (axis == "Y" || axis == "y") m << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  else if (axis == "X" || axis == "x") m << 0, 0, -1, 0, 1, 0, 1, 0, 0;
+  else if (axis == "Z" || axis == "z") m = Mat3::Identity();
+  else throw TilesetError(file + ": asset.gltfUpAxis '" + axis + "' is not X, Y or Z");
+  return m;
 }
 
 std::string resolve(const std::string& tileset, const std::string& uri) {
@@ -94,14 +131,17 @@ Tileset read_tileset(const std::string& path, bool keep_going) {
   ts.path = path;
   const fs::path root = fs::absolute(fs::path(path).parent_path()).lexically_normal();
   std::set<std::string> seen;
-  std::function<void(const std::string&, const std::string&)> visit = [&](const std::string& file, const std::string& parent) {
+  std::function<void(const std::string&, const std::string&, const Mat3&)> visit = [&](const std::string& file,
+                                                                                      const std::string& parent,
+                                                                                      const Mat3& above) {
     const std::string key = fs::absolute(file).lexically_normal().string();
     if (!seen.insert(key).second) throw TilesetError(file + ": external tileset reached twice (named by " + parent + "): a cycle");
     const ojson j = read_json(file, parent);
     if (!j.is_object() || !j.contains("root") || !j["root"].is_object())
       throw TilesetError(file + ": not a tileset (no \"root\" tile)" + (parent.empty() ? std::string() : " (named by " + parent + ")"));
     ts.tilesets.push_back(file);
-    walk_tiles(j["root"], [&](const ojson& tile) {
+    const Mat3 up = gltf_up_turn(j, file);
+    walk_tiles(j["root"], above, file, [&](const ojson& tile, const Mat3& linear) {
       if (tile.contains("implicitTiling") || (tile.contains("extensions") && tile["extensions"].contains("3DTILES_implicit_tiling")))
         throw TilesetError(file + ": implicit tiling is not supported");
       for (const std::string& uri : content_uris(tile)) {
@@ -122,7 +162,7 @@ Tileset read_tileset(const std::string& path, bool keep_going) {
           // keep_going: an external tileset that fails leaves nothing of its subtree behind.
           const size_t n_tilesets = ts.tilesets.size(), n_contents = ts.contents.size(), n_broken = ts.broken.size();
           try {
-            visit(p, file);
+            visit(p, file, linear);
           } catch (const TilesetError& err) {
             if (!keep_going) throw;
             ts.tilesets.resize(n_tilesets);
@@ -132,11 +172,11 @@ Tileset read_tileset(const std::string& path, bool keep_going) {
           }
           continue;
         }
-        ts.contents.push_back({uri, p, file, e});
+        ts.contents.push_back({uri, p, file, e, linear * up});
       }
     });
   };
-  visit(path, "");
+  visit(path, "", Mat3::Identity());
   return ts;
 }
 
@@ -313,6 +353,8 @@ nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions
   const GltfFormat format;
   nlohmann::json summary = {{"tileset", options.tileset}, {"config_origin", config.origin}, {"models", nlohmann::json::array()}};
   if (!whole) summary["reports"] = nlohmann::json::array();
+  std::map<std::string, Mat3> linear_of;  // content (relative name) -> its measure_linear, first tile naming it
+  for (const TilesetContent& c : ts.contents) linear_of.emplace(rel_name(c.path, root), c.measure_linear);
   std::set<std::string> still_used;
   size_t in_bytes = 0, out_bytes = 0, faces = 0;
   for (size_t k = 0; k < models.size(); ++k) {
@@ -331,6 +373,8 @@ nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions
         group.push_back({path, {}, ""});
         b3dm_of.push_back(nullptr);
       }
+      const auto lin = linear_of.find(names[i]);
+      if (lin != linear_of.end()) group.back().outer_linear = lin->second;
     }
     if (options.progress) options.progress("tileset " + names.front(), double(k) / double(models.size()));
     RunOptions ro;

@@ -22,6 +22,7 @@
 
 #include "texdefrag/core/mesh.h"
 #include "texdefrag/io/image.h"
+#include "texdefrag/io/measure_transform.h"
 
 #include <nlohmann/json.hpp>
 
@@ -44,6 +45,10 @@ struct GltfInput {
   std::string path;             ///< file path; for in-memory input, the name used in errors
   std::vector<uint8_t> bytes;   ///< empty: read `path`; else the GLB or glTF JSON bytes
   std::string base_dir;         ///< folder external URIs resolve against (default: path's folder)
+  /// Linear part of the transform above the document's scenes, for measuring only (docs/io.md
+  /// "Node transforms"): a 3D Tiles content's tile transforms times the glTF y-up to z-up turn;
+  /// the identity for a plain glTF file.
+  Mat3 outer_linear = Mat3::Identity();
 };
 
 /// Where face `f` of GltfModel::mesh came from.
@@ -74,6 +79,10 @@ struct GltfModel {
   std::vector<GltfFaceSource> face_source;    ///< one per face of `mesh`
   std::vector<GltfPageSource> page_source;    ///< one per page of `mesh`
   nlohmann::json stats;                       ///< numbers for the run report's read node
+  /// Positions multiplied by their node transform's stretch for measuring (io/measure_transform.h):
+  /// mesh.positions are the accessor values times the stretch of (outer_linear * the linear part
+  /// of the first node naming their glTF mesh); the writer writes the accessors' bytes.
+  size_t positions_stretched = 0;
   std::shared_ptr<const std::vector<gltf_detail::Document>> documents;  ///< for the writer
 };
 

@@ -6,6 +6,7 @@
 // their feature and batch tables byte for byte, only the GLB inside changes.
 #pragma once
 
+#include "texdefrag/io/measure_transform.h"
 #include "texdefrag/pipeline/pipeline.h"
 
 #include <nlohmann/json.hpp>
@@ -28,6 +29,12 @@ struct TilesetContent {
   std::string path;     ///< resolved file
   std::string tileset;  ///< the tileset JSON that names it
   std::string kind;     ///< "glb", "gltf", "b3dm", or the lower-case extension of other contents
+  /// Linear part of the transform from the content's glTF frame to the entry tileset's frame: the
+  /// tile transforms from the root down to its tile (through external tilesets) times the glTF
+  /// up-axis turn (asset.gltfUpAxis, default y-up to z-up). Translations (tile transforms', a
+  /// b3dm's RTC_CENTER, CESIUM_RTC) change no length, angle or area and are left out. For
+  /// measuring only (GltfInput::outer_linear; docs/io.md "Node transforms").
+  Mat3 measure_linear = Mat3::Identity();
 };
 
 /// A content or external tileset of the tree that cannot be read (missing file, unreadable or
