@@ -4,14 +4,16 @@
 
 #include <dlfcn.h>
 #include <elf.h>
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
-#include <iterator>
 
 namespace fs = std::filesystem;
 
@@ -32,33 +34,60 @@ bool well_formed_name(const std::string& name) {
 
 constexpr const char* kEntry = "texdefrag_plugin_register";
 
+/// A file mapped read-only (empty when it cannot be opened or mapped).
+struct MappedFile {
+  const char* data = nullptr;
+  size_t size = 0;
+
+  explicit MappedFile(const std::string& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return;
+    struct stat st {};
+    if (::fstat(fd, &st) == 0 && st.st_size > 0) {
+      void* p = ::mmap(nullptr, static_cast<size_t>(st.st_size), PROT_READ, MAP_PRIVATE, fd, 0);
+      if (p != MAP_FAILED) {
+        data = static_cast<const char*>(p);
+        size = static_cast<size_t>(st.st_size);
+      }
+    }
+    ::close(fd);
+  }
+  ~MappedFile() {
+    if (data) ::munmap(const_cast<char*>(data), size);
+  }
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+};
+
 /// Whether the ELF64 shared object at `path` defines the global function `kEntry` in its dynamic
 /// symbol table, read from the file (the library is not loaded: a stray library's constructors
 /// never run). `why` says what was found when not.
+/// note: the file is mapped, not read: only the headers and the dynamic symbols are touched (reading
+/// the 11 shipped plugins whole, 6.7 MB through a stream, was most of `validate`'s 0.1 s).
 bool defines_entry(const std::string& path, std::string& why) {
-  std::ifstream in(path, std::ios::binary);
-  const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (data.size() < sizeof(Elf64_Ehdr) || std::memcmp(data.data(), ELFMAG, SELFMAG) != 0 ||
-      data[EI_CLASS] != ELFCLASS64) {
+  const MappedFile file(path);
+  const char* const data = file.data;
+  const size_t size = file.size;
+  if (!data || size < sizeof(Elf64_Ehdr) || std::memcmp(data, ELFMAG, SELFMAG) != 0 || data[EI_CLASS] != ELFCLASS64) {
     why = "not a 64-bit ELF shared object";
     return false;
   }
   Elf64_Ehdr eh;
-  std::memcpy(&eh, data.data(), sizeof eh);
+  std::memcpy(&eh, data, sizeof eh);
   const auto section = [&](size_t i, Elf64_Shdr& sh) {
     const size_t off = static_cast<size_t>(eh.e_shoff) + i * sizeof(Elf64_Shdr);
-    if (off + sizeof sh > data.size()) return false;
-    std::memcpy(&sh, data.data() + off, sizeof sh);
-    return sh.sh_offset + sh.sh_size <= data.size();
+    if (off + sizeof sh > size) return false;
+    std::memcpy(&sh, data + off, sizeof sh);
+    return sh.sh_offset <= size && sh.sh_size <= size - sh.sh_offset;
   };
   for (size_t i = 0; i < eh.e_shnum; ++i) {
     Elf64_Shdr sym, str;
     if (!section(i, sym) || sym.sh_type != SHT_DYNSYM || !section(sym.sh_link, str)) continue;
     for (size_t k = 0; k < sym.sh_size / sizeof(Elf64_Sym); ++k) {
       Elf64_Sym e;
-      std::memcpy(&e, data.data() + sym.sh_offset + k * sizeof e, sizeof e);
+      std::memcpy(&e, data + sym.sh_offset + k * sizeof e, sizeof e);
       if (e.st_shndx == SHN_UNDEF || ELF64_ST_TYPE(e.st_info) != STT_FUNC || e.st_name >= str.sh_size) continue;
-      const char* name = data.data() + str.sh_offset + e.st_name;
+      const char* name = data + str.sh_offset + e.st_name;
       if (std::strncmp(name, kEntry, static_cast<size_t>(str.sh_size - e.st_name)) == 0) return true;
     }
   }
