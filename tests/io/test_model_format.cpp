@@ -296,6 +296,9 @@ TEST(JpegQualityFit, PageQualityIsRaisedOnlyFromTheInputsEstimate) {
   po = choose_page_options(m, "input", 60, true);
   fit_page_quality(m, out, po, 90);  // capped
   EXPECT_EQ(po.jpeg_quality, 90);
+  po = choose_page_options(m, "input", 60, true);
+  EXPECT_EQ(fit_page_quality(m, out, po, 80).probes, 0);  // the cap is the estimate: nothing to raise
+  EXPECT_EQ(po.jpeg_quality, 80);
   po = choose_page_options(m, "input", 60, false);  // the quality option, not the input's
   EXPECT_EQ(fit_page_quality(m, out, po, 100).probes, 0);
   EXPECT_EQ(po.jpeg_quality, 60);

@@ -131,7 +131,7 @@ JpegQualityFit fit_page_quality(const LoadedModel& in, const std::vector<Image>&
                                 int max_quality) {
   JpegQualityFit none;
   none.quality = po.jpeg_quality;
-  if (po.format != ImageFormat::Jpeg || !po.jpeg_quality_from_input || max_quality < po.jpeg_quality || pages.empty())
+  if (po.format != ImageFormat::Jpeg || !po.jpeg_quality_from_input || max_quality <= po.jpeg_quality || pages.empty())
     return none;
   std::vector<uint8_t> used(in.mesh.pages.size(), 0);
   for (const Face& f : in.mesh.faces)

@@ -169,7 +169,8 @@ PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& i
 /// input's page bytes (the sum of in.page_encodings' bytes, as the run report's input_page_bytes),
 /// by fit_jpeg_quality (io/jpeg_quality.h). The quality is never lowered below the estimate.
 /// Nothing is searched (probes 0, po unchanged) for PNG pages, a quality not from the input,
-/// max_quality below the estimate, no page, or a textured input page whose bytes are unknown.
+/// max_quality at or below the estimate (nothing to raise: the six OBJ development tiles' quality
+/// 100), no page, or a textured input page whose bytes are unknown.
 JpegQualityFit fit_page_quality(const LoadedModel& in, const std::vector<Image>& pages, PageWriteOptions& po,
                                 int max_quality);
 
