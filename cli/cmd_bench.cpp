@@ -40,7 +40,7 @@ CLI::App* add_bench_command(CLI::App& app, int& exit_code) {
   sub->add_option("-j,--jobs", o.jobs, "Pairs run at once (each in its own process)")->check(CLI::Range(1, 64));
   sub->add_option("--threads", o.threads, "Threads of each run (texdefrag run --threads; 0 = every core; default: not passed, i.e. every core)")
       ->check(CLI::Range(0, 1024));
-  sub->add_option("--set", o.sets, "Override an option of every configuration: STAGE.OPTION=VALUE (repeatable)");
+  add_set_option(sub, o.sets, "Override an option of every configuration: STAGE.OPTION=VALUE (one per --set; repeat it for more)");
   sub->add_option("--sweep", o.sweeps, "One configuration per value: STAGE.OPTION=V1,V2,... (repeatable: all combinations)");
   sub->add_option("--external", o.externals, "Another tool's outputs evaluated as configuration NAME: NAME=DIR (repeatable)");
   sub->add_option("--samples", o.samples, "Texture fidelity samples per comparison")

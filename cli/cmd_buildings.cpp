@@ -24,7 +24,7 @@ CLI::App* add_buildings_command(CLI::App& app, int& exit_code) {
   sub->add_option("input", a->input, "Input OBJ")->required();
   sub->add_option("-o,--output", a->out, "Output folder (created; not the input's folder)")->required();
   sub->add_option("--min-faces", a->min_faces, "Smaller building components go to the remainder")->check(CLI::Range(1, 100000000));
-  sub->add_option("--set", a->sets, "Option of detectors.semantic: OPTION=VALUE (VALUE is JSON or a bare string)");
+  add_set_option(sub, a->sets, "Option of detectors.semantic: OPTION=VALUE (VALUE is JSON or a bare string; one per --set)");
   sub->callback([a, &exit_code] {
     try {
       buildings::ExtractOptions o;

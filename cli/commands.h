@@ -8,8 +8,14 @@
 #include <CLI/CLI.hpp>
 
 #include <string>
+#include <vector>
 
 namespace texdefrag::cli {
+/// Adds `--set KEY=VALUE` to `sub`: exactly one value per occurrence (repeat `--set` for more), so
+/// an argument after it (`run --set a.b=1 in.obj -o out`) is never taken as another value.
+inline CLI::Option* add_set_option(CLI::App* sub, std::vector<std::string>& sets, const std::string& help) {
+  return sub->add_option("--set", sets, help)->allow_extra_args(false);
+}
 CLI::App* add_eval_command(CLI::App& app, int& exit_code);     // cmd_eval.cpp (eval/metrics)
 CLI::App* add_bench_command(CLI::App& app, int& exit_code);    // cmd_bench.cpp (eval/bench)
 CLI::App* add_synth_command(CLI::App& app, int& exit_code);    // cmd_synth.cpp (eval/synth)

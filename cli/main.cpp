@@ -112,7 +112,7 @@ int main(int argc, char** argv) {
                   "Configuration: a JSON file or a shipped name (`texdefrag configs`); default: best");
   run->add_option("input", input, "Input model (OBJ, OSGB, glTF/GLB), production folder (docs/production.md) or 3D Tiles tileset JSON")->required();
   run->add_option("-o,--output", output_dir, "Output folder (created; must not be the input's folder)");
-  run->add_option("--set", sets, "Override an option: SECTION.OPTION=VALUE or STAGE.OPTION=VALUE (repeatable)");
+  cli::add_set_option(run, sets, "Override an option: SECTION.OPTION=VALUE or STAGE.OPTION=VALUE (one per --set; repeat it for more)");
   run->add_flag("--quiet,-q", quiet, "No progress bar and no summary line");
   run->add_flag("--no-write", no_write, "Run the stages and report, write nothing");
   run->add_flag("--report", print_report, "Print the run report JSON on standard output");
@@ -162,7 +162,7 @@ int main(int argc, char** argv) {
   // validate
   auto* validate = app.add_subcommand("validate", "Validate a pipeline configuration without reading any mesh");
   validate->add_option("--config,-c", config_path, "Configuration: a JSON file or a shipped name")->required();
-  validate->add_option("--set", sets, "Override an option (as in run)");
+  cli::add_set_option(validate, sets, "Override an option (as in run)");
   validate->callback([&] {
     exit_code = guarded([&] {
       load_config(resolve_config(config_path), sets);

@@ -30,6 +30,11 @@ check "quiet run prints nothing" 0 "" -- "$exe" run -q -c "$src/configs/repack.j
 [ ! -s "$work/err" ] || { echo "FAIL quiet run wrote to stderr"; fail=$((fail+1)); }
 check "eval ok" 0 "PSNR" -- "$exe" eval "$model" "$work/o5/building.obj"
 check "eval missing file" 1 "$work/nope.obj" -- "$exe" eval "$model" "$work/nope.obj"
+# --set takes exactly one KEY=VALUE per occurrence: an input after it is the input, not a value.
+check "--set before the input" 0 "" -- "$exe" run -q -c "$src/configs/repack.json" --set packer.gutter=3 "$model" -o "$work/o9"
+test -s "$work/o9/building.obj" || { echo "FAIL --set before the input wrote no output"; fail=$((fail+1)); }
+check "--set takes one value" 2 "not expected: packer.max_page_size=512" -- "$exe" validate -c "$src/configs/repack.json" --set packer.gutter=3 packer.max_page_size=512
+check "--set repeated" 0 "ok" -- "$exe" validate -c "$src/configs/repack.json" --set packer.gutter=3 --set=packer.max_page_size=512
 # Issue 11, cases 1 and 2: no input file is ever written; output.name is a file stem.
 mkdir -p "$work/in" && cp "$src"/examples/building/building.{obj,mtl} "$src"/examples/building/building_0.jpg "$work/in/"
 sum_in() { (cd "$work/in" && sha256sum building.obj building.mtl building_0.jpg); }

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -139,6 +140,37 @@ TEST(Pipeline, EveryConfigRunsEndToEnd) {
     for (const char* stage : {"read", "charts", "texture.resample", "write"})
       EXPECT_TRUE(report["stages"].contains(stage)) << stage;
     EXPECT_TRUE(fs::exists(ro.output_dir + "/small.report.json"));
+  }
+}
+
+// Issue 11 ("eval computes distortion with the core's code"): the run report's distortion_arap
+// (the merger's node: core/distortion.h on the merged atlas, in texels) and eval's distortion of the
+// written output against the input (core/distortion.h on the two files) are one figure. The
+// example building gives a distortion far from 0, so a difference in the measure shows.
+TEST(Pipeline, EvalDistortionEqualsTheRunReports) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  const std::string model = (fs::path(source_dir()) / "examples" / "building" / "building.obj").string();
+  for (const char* f : {"best.json", "ablations/arap.json"}) {
+    SCOPED_TRACE(f);
+    RunOptions ro;
+    ro.input = model;
+    ro.output_dir = dir + "/out_" + fs::path(f).stem().string();
+    const json report = run_pipeline(load_config(config_path(f)), ro);
+    const json* merger = nullptr;
+    for (auto it = report["stages"].begin(); it != report["stages"].end(); ++it)
+      if (it->value("section", "") == "merger") merger = &*it;
+    ASSERT_NE(merger, nullptr) << report["stages"].dump();
+    const double in_report = (*merger)["distortion_arap"].get<double>();
+    eval::EvalOptions eo;
+    eo.texture = false;
+    eo.appearance = false;
+    const eval::Comparison c = eval::compare_files(model, report["output"].get<std::string>(), eo);
+    std::printf("%s: distortion_arap %.9g in the run report, %.9g by eval; flipped %zu / %zu\n", f, in_report,
+                c.distortion.arap, (*merger)["flipped_faces"].get<size_t>(), c.distortion.flipped);
+    EXPECT_GT(in_report, 1e-4) << "too small to tell two measures apart";
+    EXPECT_NEAR(c.distortion.arap, in_report, 1e-6 * in_report) << "eval " << c.distortion.arap << ", report " << in_report;
+    EXPECT_EQ(c.distortion.flipped, (*merger)["flipped_faces"].get<size_t>());
+    EXPECT_EQ(c.match.lost, 0u);
   }
 }
 

@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <mutex>
 #include <string>
 #include <unistd.h>
 
@@ -39,6 +41,53 @@ std::vector<std::string> real_models(size_t max_faces) {
   return out;
 }
 
+namespace {
+
+/// Removes the process's temporary folder at the end of a test program whose tests all passed; a
+/// failing test prints where its files are kept (after its failure message), and a failing program
+/// keeps the whole folder and says so.
+class TempFolderKeeper : public ::testing::EmptyTestEventListener {
+ public:
+  explicit TempFolderKeeper(fs::path root) : root_(std::move(root)) {}
+  const fs::path& root() const { return root_; }
+  /// Records a folder made for the running test.
+  void made(const fs::path& p) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    current_.push_back(p);
+  }
+  void OnTestStart(const ::testing::TestInfo&) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    current_.clear();
+    told_ = false;
+  }
+  void OnTestPartResult(const ::testing::TestPartResult& r) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!r.failed() || told_ || current_.empty()) return;
+    told_ = true;
+    for (const fs::path& p : current_) std::printf("[  FILES   ] this test's files are kept in %s\n", p.string().c_str());
+    std::fflush(stdout);
+  }
+  void OnTestProgramEnd(const ::testing::UnitTest& unit) override {
+    if (unit.Passed()) {
+      std::error_code ec;
+      fs::remove_all(root_, ec);
+      if (ec) std::printf("[  FILES   ] could not remove %s: %s\n", root_.string().c_str(), ec.message().c_str());
+    } else {
+      std::printf("[  FILES   ] tests failed: their files are kept in %s (removed when every test passes)\n",
+                  root_.string().c_str());
+    }
+    std::fflush(stdout);
+  }
+
+ private:
+  fs::path root_;
+  std::mutex mutex_;
+  std::vector<fs::path> current_;
+  bool told_ = false;
+};
+
+}  // namespace
+
 std::string temp_dir(const std::string& suffix) {
   const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
   std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "test";
@@ -47,10 +96,17 @@ std::string temp_dir(const std::string& suffix) {
   // note: one folder per test process (texdefrag-tests-<pid>): several builds on one machine run
   // the same tests at once (engineers' worktrees, CI), and a shared folder per test name let one
   // run remove another's files mid-test (Pipeline.EveryConfigRunsEndToEnd lost a report that way).
-  static const fs::path root = fs::temp_directory_path() / ("texdefrag-tests-" + std::to_string(::getpid()));
-  const fs::path p = root / (name + suffix);
+  // The first call registers the listener that removes it when every test passed (gtest owns and
+  // deletes listeners).
+  static TempFolderKeeper* const keeper = [] {
+    auto* k = new TempFolderKeeper(fs::temp_directory_path() / ("texdefrag-tests-" + std::to_string(::getpid())));
+    ::testing::UnitTest::GetInstance()->listeners().Append(k);
+    return k;
+  }();
+  const fs::path p = keeper->root() / (name + suffix);
   fs::remove_all(p);
   fs::create_directories(p);
+  keeper->made(p);
   return p.string();
 }
 

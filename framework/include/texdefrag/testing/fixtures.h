@@ -20,6 +20,9 @@ std::vector<std::string> real_models(size_t max_faces = 0);
 
 /// A new empty folder named after the running test, under <system temp>/texdefrag-tests-<pid>/ (one
 /// folder per test process, so runs of the same tests from several builds never share one).
+/// <system temp>/texdefrag-tests-<pid>/ is removed when the test program ends with every test
+/// passed; a failing test prints "[  FILES   ] this test's files are kept in <folder>" after its
+/// failure message, and a failing program keeps the whole folder and prints where it is.
 std::string temp_dir(const std::string& suffix = "");
 
 /// Writes a solid-colour or gradient RGB PNG of the given size (for hand-built meshes' pages).
