@@ -428,6 +428,11 @@ ImageRef texture_image(const Document& d, const tinygltf::Model& m, int tex, con
 /// Reads the data of one triangle primitive (accessors or Draco).
 void decode_primitive(const tinygltf::Model& m, Document& d, Primitive& P, const ojson& pj) {
   const std::string where = prim_name(d, P.mesh, P.prim);
+  // note: tinygltf drops a primitive without "attributes" (and a mesh with a bad one) that the
+  // JSON lists; reading on would index past its lists (found by fuzz_gltf).
+  if (static_cast<size_t>(P.mesh) >= m.meshes.size() || static_cast<size_t>(P.prim) >= m.meshes[static_cast<size_t>(P.mesh)].primitives.size() ||
+      !pj.contains("attributes") || !pj["attributes"].is_object())
+    throw GltfError(where + ": no \"attributes\" object (required)");
   const tinygltf::Primitive& tp = m.meshes[static_cast<size_t>(P.mesh)].primitives[static_cast<size_t>(P.prim)];
   std::vector<uint32_t> idx;
   if (pj.contains("extensions") && pj["extensions"].contains("KHR_draco_mesh_compression")) {
@@ -752,8 +757,10 @@ GltfModel read_gltf(const std::string& path, const GltfReadOptions& options) {
   return read_gltf(std::vector<GltfInput>{in}, options);
 }
 
-GltfModel read_gltf(const std::vector<GltfInput>& inputs, const GltfReadOptions& options) {
-  if (inputs.empty()) throw GltfError("read_gltf: no input");
+namespace {
+
+/// read_gltf's body; `current` is the input being read.
+GltfModel read_inputs(const std::vector<GltfInput>& inputs, const GltfReadOptions& options, size_t& current) {
   GltfModel model;
   auto docs = std::make_shared<std::vector<Document>>();
   model.documents = docs;
@@ -761,6 +768,7 @@ GltfModel read_gltf(const std::vector<GltfInput>& inputs, const GltfReadOptions&
   std::map<std::pair<int, int>, int> material_of;  // (file, glTF material) -> mesh material
   size_t draco_prims = 0, skipped_prims = 0, triangle_prims = 0, ktx2_replaced = 0;
   for (size_t fi = 0; fi < inputs.size(); ++fi) {
+    current = fi;
     auto [doc, m] = load_document(inputs[fi]);
     GltfInput kept = inputs[fi];
     kept.bytes.clear();
@@ -862,6 +870,20 @@ GltfModel read_gltf(const std::vector<GltfInput>& inputs, const GltfReadOptions&
                  {"faces", model.mesh.faces.size()},
                  {"pages", model.mesh.pages.size()}};
   return model;
+}
+
+}  // namespace
+
+GltfModel read_gltf(const std::vector<GltfInput>& inputs, const GltfReadOptions& options) {
+  if (inputs.empty()) throw GltfError("read_gltf: no input");
+  size_t current = 0;
+  try {
+    return read_inputs(inputs, options, current);
+  } catch (const nlohmann::json::exception& e) {
+    // note: a member of another JSON type than the reader reads ("mode": "4", "uri": {}) makes the
+    // JSON library throw; the error names the file like every other (found by fuzz_gltf).
+    throw GltfError(inputs[current].path + ": glTF JSON: " + e.what());
+  }
 }
 
 Image read_gltf_page(const GltfModel& model, int page) {

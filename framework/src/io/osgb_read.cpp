@@ -13,6 +13,7 @@
 #include <osgDB/ReadFile>
 #include <osgDB/Registry>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -29,11 +30,31 @@ using osgb_detail::FaceRecord;
 using osgb_detail::GeometryRecord;
 using osgb_detail::OsgbSource;
 
+/// Checks the binary OSGB header (the two magic words osgDB writes first) before osgDB sees the
+/// bytes: a file that is not OSGB is an error naming it.
+void check_osgb_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char h[8] = {};
+  in.read(reinterpret_cast<char*>(h), sizeof h);
+  static const unsigned char kMagic[8] = {0xA1, 0x0E, 0x91, 0x6C, 0x45, 0x45, 0xFB, 0x1A};  // 0x6C910EA1, 0x1AFB4545
+  if (in.gcount() != 8 || !std::equal(h, h + 8, kMagic))
+    throw FormatError(path + ": not a binary OSGB file (" + (in.gcount() < 8 ? std::string("shorter than its header") : std::string("bad magic")) + ")");
+}
+
 /// Reads a node file or throws FormatError with osgDB's reason.
 osg::ref_ptr<osg::Node> read_node(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw FormatError(path + ": no such file");
-  osgDB::ReaderWriter::ReadResult rr = osgDB::Registry::instance()->readNode(path, nullptr);
+  if (lower_extension(path) == "osgb") check_osgb_header(path);
+  osgDB::ReaderWriter::ReadResult rr;
+  try {
+    rr = osgDB::Registry::instance()->readNode(path, nullptr);
+  } catch (const std::exception& e) {
+    // note: osgDB sizes strings and arrays from the file before reading them, so a malformed file
+    // can ask for gigabytes (found by fuzz_osgb): std::bad_alloc (or length_error) is an error
+    // naming the file, not an escape.
+    throw FormatError(path + ": cannot read the scene graph (malformed OSGB?): " + e.what());
+  }
   if (!rr.validNode()) {
     std::string why = rr.message();
     if (why.empty()) why = rr.notFound() ? "no osgDB plugin reads it (is osgdb_osg installed?)" : "unreadable or truncated";

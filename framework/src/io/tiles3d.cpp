@@ -141,7 +141,7 @@ Tileset read_tileset(const std::string& path, bool keep_going) {
       throw TilesetError(file + ": not a tileset (no \"root\" tile)" + (parent.empty() ? std::string() : " (named by " + parent + ")"));
     ts.tilesets.push_back(file);
     const Mat3 up = gltf_up_turn(j, file);
-    walk_tiles(j["root"], above, file, [&](const ojson& tile, const Mat3& linear) {
+    auto tile_contents = [&](const ojson& tile, const Mat3& linear) {
       if (tile.contains("implicitTiling") || (tile.contains("extensions") && tile["extensions"].contains("3DTILES_implicit_tiling")))
         throw TilesetError(file + ": implicit tiling is not supported");
       for (const std::string& uri : content_uris(tile)) {
@@ -174,7 +174,14 @@ Tileset read_tileset(const std::string& path, bool keep_going) {
         }
         ts.contents.push_back({uri, p, file, e, linear * up});
       }
-    });
+    };
+    try {
+      walk_tiles(j["root"], above, file, tile_contents);
+    } catch (const nlohmann::json::exception& e) {
+      // note: a member of another JSON type ("uri": 5, "children": "x") makes the JSON library
+      // throw; the error names the tileset like every other (found by fuzz_tiles3d).
+      throw TilesetError(file + ": tileset JSON: " + e.what());
+    }
   };
   visit(path, "", Mat3::Identity());
   return ts;

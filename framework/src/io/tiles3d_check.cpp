@@ -3,6 +3,7 @@
 
 #include "gltf_internal.h"
 
+#include <algorithm>
 #include <Eigen/Dense>
 
 #include <cmath>
@@ -20,9 +21,24 @@ namespace {
 
 using Mat4 = Eigen::Matrix4d;
 
+/// True when `a` is an array of `n` numbers (read with operator[] only then: a const JSON read out
+/// of range is undefined behaviour).
+bool numbers(const ojson& a, size_t n) {
+  if (!a.is_array() || a.size() != n) return false;
+  for (const ojson& v : a)
+    if (!v.is_number()) return false;
+  return true;
+}
+
+/// `a` when it is an array of `n` numbers, else throws naming `what`.
+const ojson& checked_numbers(const ojson& a, size_t n, const char* what) {
+  if (!numbers(a, n)) throw TilesetError(std::string(what) + " is not an array of " + std::to_string(n) + " numbers");
+  return a;
+}
+
 Mat4 mat_of(const ojson& a) {
   Mat4 m = Mat4::Identity();
-  if (a.is_array() && a.size() == 16)
+  if (numbers(a, 16))
     for (int i = 0; i < 16; ++i) m(i % 4, i / 4) = a[static_cast<size_t>(i)].get<double>();  // column-major
   return m;
 }
@@ -31,10 +47,12 @@ Mat4 mat_of(const ojson& a) {
 Mat4 node_matrix(const ojson& n) {
   if (n.contains("matrix")) return mat_of(n["matrix"]);
   Mat4 m = Mat4::Identity();
-  if (n.contains("scale"))
-    m = Eigen::Vector4d(n["scale"][0].get<double>(), n["scale"][1].get<double>(), n["scale"][2].get<double>(), 1).asDiagonal();
+  if (n.contains("scale")) {
+    const ojson& s = checked_numbers(n["scale"], 3, "a node's scale");
+    m = Eigen::Vector4d(s[0].get<double>(), s[1].get<double>(), s[2].get<double>(), 1).asDiagonal();
+  }
   if (n.contains("rotation")) {
-    const auto& r = n["rotation"];
+    const auto& r = checked_numbers(n["rotation"], 4, "a node's rotation");
     const Eigen::Quaterniond q(r[3].get<double>(), r[0].get<double>(), r[1].get<double>(), r[2].get<double>());
     Mat4 R = Mat4::Identity();
     R.topLeftCorner<3, 3>() = q.normalized().toRotationMatrix();
@@ -42,7 +60,8 @@ Mat4 node_matrix(const ojson& n) {
   }
   if (n.contains("translation")) {
     Mat4 T = Mat4::Identity();
-    for (int i = 0; i < 3; ++i) T(i, 3) = n["translation"][static_cast<size_t>(i)].get<double>();
+    const ojson& t = checked_numbers(n["translation"], 3, "a node's translation");
+    for (int i = 0; i < 3; ++i) T(i, 3) = t[static_cast<size_t>(i)].get<double>();
     m = T * m;
   }
   return m;
@@ -61,8 +80,10 @@ std::vector<Eigen::Vector3d> content_points(const std::string& path, const ojson
     const B3dm b = parse_b3dm(bytes, path);
     if (!b.feature_table_json.empty()) {
       const ojson ft = ojson::parse(b.feature_table_json);
-      if (ft.contains("RTC_CENTER"))
-        for (int i = 0; i < 3; ++i) rtc[i] = ft["RTC_CENTER"][static_cast<size_t>(i)].get<double>();
+      if (ft.contains("RTC_CENTER")) {
+        const ojson& c = checked_numbers(ft["RTC_CENTER"], 3, "the feature table's RTC_CENTER");
+        for (int i = 0; i < 3; ++i) rtc[i] = c[static_cast<size_t>(i)].get<double>();
+      }
     }
     gi.bytes = b.glb;
     gi.base_dir = fs::path(path).parent_path().string();
@@ -71,19 +92,23 @@ std::vector<Eigen::Vector3d> content_points(const std::string& path, const ojson
   ro.read_page_sizes = false;
   const GltfModel g = read_gltf(std::vector<GltfInput>{gi}, ro);
   const gltf_detail::Document& d = (*g.documents)[0];
-  if (d.json.contains("extensions") && d.json["extensions"].contains("CESIUM_RTC"))
-    for (int i = 0; i < 3; ++i) rtc[i] += d.json["extensions"]["CESIUM_RTC"]["center"][static_cast<size_t>(i)].get<double>();
+  if (d.json.contains("extensions") && d.json["extensions"].contains("CESIUM_RTC")) {
+    const ojson& c = checked_numbers(d.json["extensions"]["CESIUM_RTC"].value("center", ojson()), 3, "CESIUM_RTC's center");
+    for (int i = 0; i < 3; ++i) rtc[i] += c[static_cast<size_t>(i)].get<double>();
+  }
   // World matrices of every node holding a mesh, scene by scene.
   std::vector<std::vector<Mat4>> mesh_worlds(d.json.contains("meshes") ? d.json["meshes"].size() : 0);
   const ojson nodes = d.json.value("nodes", ojson::array());
-  std::function<void(size_t, const Mat4&)> visit = [&](size_t n, const Mat4& parent) {
-    const Mat4 w = parent * node_matrix(nodes[n]);
+  // note: at() (not operator[]) and a depth limit: node indices and children come from the file.
+  std::function<void(size_t, const Mat4&, size_t)> visit = [&](size_t n, const Mat4& parent, size_t depth) {
+    if (depth > nodes.size()) throw TilesetError(path + ": the node hierarchy has a cycle");
+    const Mat4 w = parent * node_matrix(nodes.at(n));
     if (nodes[n].contains("mesh")) mesh_worlds.at(nodes[n]["mesh"].get<size_t>()).push_back(w);
-    for (const auto& c : nodes[n].value("children", ojson::array())) visit(c.get<size_t>(), w);
+    for (const auto& c : nodes[n].value("children", ojson::array())) visit(c.get<size_t>(), w, depth + 1);
   };
   if (d.json.contains("scenes")) {
     const size_t s = d.json.value("scene", 0);
-    for (const auto& n : d.json["scenes"][s].value("nodes", ojson::array())) visit(n.get<size_t>(), Mat4::Identity());
+    for (const auto& n : d.json["scenes"].at(s).value("nodes", ojson::array())) visit(n.get<size_t>(), Mat4::Identity(), 0);
   }
   // glTF is y-up; 3D Tiles z-up (asset.gltfUpAxis may say otherwise in 1.0).
   Mat4 up = Mat4::Identity();
@@ -113,6 +138,7 @@ Eigen::Vector3d geodetic(const Eigen::Vector3d& p) {
 std::string outside(const ojson& bv, const Mat4& T, const Eigen::Vector3d& p, double tol) {
   if (bv.contains("box")) {
     const auto& b = bv["box"];
+    if (!numbers(b, 12)) return "box is not an array of 12 numbers";
     const Eigen::Vector3d c = (T * Eigen::Vector4d(b[0].get<double>(), b[1].get<double>(), b[2].get<double>(), 1)).head<3>();
     Eigen::Vector3d r = p - c;
     double size = 0;
@@ -133,6 +159,7 @@ std::string outside(const ojson& bv, const Mat4& T, const Eigen::Vector3d& p, do
   }
   if (bv.contains("sphere")) {
     const auto& s = bv["sphere"];
+    if (!numbers(s, 4)) return "sphere is not an array of 4 numbers";
     const Eigen::Vector3d c = (T * Eigen::Vector4d(s[0].get<double>(), s[1].get<double>(), s[2].get<double>(), 1)).head<3>();
     const double scale = T.topLeftCorner<3, 3>().colwise().norm().maxCoeff();
     const double rad = s[3].get<double>() * scale;
@@ -140,6 +167,7 @@ std::string outside(const ojson& bv, const Mat4& T, const Eigen::Vector3d& p, do
   }
   if (bv.contains("region")) {
     const auto& g = bv["region"];
+    if (!numbers(g, 6)) return "region is not an array of 6 numbers";
     const Eigen::Vector3d q = geodetic(p);
     const double eps = tol * std::max(1e-7, std::abs(g[2].get<double>() - g[0].get<double>()));
     if (q.x() < g[0].get<double>() - eps || q.x() > g[2].get<double>() + eps || q.y() < g[1].get<double>() - eps || q.y() > g[3].get<double>() + eps)
@@ -161,10 +189,19 @@ ojson load(const std::string& path) {
 
 std::vector<std::string> check_tileset(const std::string& path, double tolerance) {
   std::vector<std::string> problems;
+  std::vector<std::string> reading;  // the tileset JSONs being read, entry first (a cycle is an error)
   std::function<void(const std::string&, const Mat4&)> visit_tileset = [&](const std::string& file, const Mat4& base) {
+    const std::string key = fs::absolute(file).lexically_normal().string();
+    if (std::find(reading.begin(), reading.end(), key) != reading.end())
+      throw TilesetError(file + ": external tileset reached again while reading it: a cycle");
+    reading.push_back(key);
     const ojson j = load(file);
     const ojson asset = j.value("asset", ojson::object());
     std::function<void(const ojson&, const Mat4&, const std::string&)> tile = [&](const ojson& t, const Mat4& parent, const std::string& where) {
+      if (!t.is_object()) {
+        problems.push_back(file + " " + where + ": the tile is not a JSON object");
+        return;
+      }
       const Mat4 T = parent * (t.contains("transform") ? mat_of(t["transform"]) : Mat4::Identity());
       std::vector<ojson> cs;
       if (t.contains("content")) cs.push_back(t["content"]);
@@ -193,7 +230,7 @@ std::vector<std::string> check_tileset(const std::string& path, double tolerance
         std::string why;
         for (const auto& q : pts) {
           const Eigen::Vector3d w = (T * q.homogeneous()).head<3>();
-          const std::string o = outside(t["boundingVolume"], T, w, tolerance);
+          const std::string o = outside(t.value("boundingVolume", ojson()), T, w, tolerance);
           if (!o.empty()) {
             ++bad;
             if (why.empty()) why = o;
@@ -206,7 +243,11 @@ std::vector<std::string> check_tileset(const std::string& path, double tolerance
       const ojson children = t.value("children", ojson::array());
       for (size_t i = 0; i < children.size(); ++i) tile(children[i], T, where + "/" + std::to_string(i));
     };
+    // note: operator[] of a const JSON object on a missing key reads freed memory (found by
+    // fuzz_tiles3d on a tileset without "root"): every lookup here checks first.
+    if (!j.is_object() || !j.contains("root")) throw TilesetError(file + ": not a tileset (no \"root\" tile)");
     tile(j["root"], base, "root");
+    reading.pop_back();
   };
   try {
     visit_tileset(path, Mat4::Identity());
@@ -243,7 +284,7 @@ std::vector<std::string> compare_tilesets(const std::string& a, const std::strin
       }
       for (size_t i = 0; i < ca.size(); ++i) tile(ca[i], cb[i], where + "/" + std::to_string(i));
     };
-    tile(ja["root"], jb["root"], "root");
+    tile(ja.value("root", ojson()), jb.value("root", ojson()), "root");
   };
   try {
     cmp_file(a, b);
