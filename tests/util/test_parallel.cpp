@@ -51,6 +51,21 @@ TEST(Parallel, UsesSeveralThreadsWhenAsked) {
   EXPECT_EQ(*ids.begin(), std::this_thread::get_id());
 }
 
+TEST(Parallel, ItemZeroRunsOnTheCallingThread) {
+  // Many times, with the pool's threads started first: item 0 is never taken by them.
+  const std::thread::id caller = std::this_thread::get_id();
+  for (int rep = 0; rep < 200; ++rep) {
+    std::thread::id first;
+    parallel_for(8, 4, [&](size_t i) {
+      if (i == 0) first = std::this_thread::get_id();
+    });
+    ASSERT_EQ(first, caller) << "repetition " << rep;
+  }
+  // A failure of item 0 is still rethrown, and items above it may be skipped.
+  EXPECT_THROW(parallel_for(4, 2, [](size_t i) { if (i == 0) throw std::runtime_error("item 0"); }),
+               std::runtime_error);
+}
+
 TEST(Parallel, TheLowestFailingItemsErrorIsRethrownWhateverTheThreadCount) {
   for (int threads : {1, 2, 4}) {
     std::vector<std::atomic<int>> ran(200);

@@ -56,9 +56,18 @@ void parallel_for(size_t n, int threads, const std::function<void(size_t)>& fn) 
       }
     }
   };
+  // Item 0 is claimed before the pool starts, so it runs on the calling thread (parallel.h).
+  const size_t first = next.fetch_add(1);
   std::vector<std::thread> pool;
   pool.reserve(workers - 1);
   for (size_t t = 1; t < workers; ++t) pool.emplace_back(work);
+  try {
+    fn(first);
+  } catch (...) {
+    std::lock_guard<std::mutex> lock(mtx);
+    first_failed = first;
+    error = std::current_exception();
+  }
   work();
   for (std::thread& t : pool) t.join();
   if (error) std::rethrow_exception(error);

@@ -491,7 +491,8 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
   }
   const int lo = s.gutter / 2;
   for (size_t n = 0; n < order.size(); ++n) {
-    if ((n & 1023) == 0) ctx.step("packers.square_tetris", static_cast<double>(n) / static_cast<double>(order.size()));
+    if (bound.reports_progress() && (n & 1023) == 0)
+      ctx.step("packers.square_tetris", static_cast<double>(n) / static_cast<double>(order.size()));
     const PackChart& c = in.charts[static_cast<size_t>(order[n])];
     const int min_side = suffix_min[n + 1];
     const int nq = s.allow_rotation ? 2 : 1;

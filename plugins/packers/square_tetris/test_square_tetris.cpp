@@ -4,9 +4,11 @@
 
 #include "texdefrag/packers/geometry.h"
 #include "texdefrag/stage/registry.h"
+#include "texdefrag/util/parallel.h"
 
 #include <algorithm>
 #include <cstdio>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -30,6 +32,26 @@ TEST(PackersSquareTetris, RegisteredWithCommonOptions) {
 }
 
 TEST(PackersSquareTetris, Invariants) { packer_invariant_suite(kName); }
+
+TEST(PackersSquareTetris, WidthTrialsSideBySideGiveTheSameLayoutForAnyThreadCount) {
+  // Building-like charts on one page: several widths pack them on a single page, and the trials
+  // run side by side with 2 and 4 threads stop each other early (TrialBoard); the chosen width and
+  // every placement must be those of one thread.
+  std::mt19937 rng(7);
+  const auto polys = building_polygons(rng, 220, 2048);
+  std::vector<std::unique_ptr<PackRun>> runs;
+  for (int threads : {1, 2, 4}) {
+    set_thread_count(threads);
+    runs.push_back(run_packer(kName, polygon_mesh(polys, 2048), {{"width_trials", 5}}));
+  }
+  set_thread_count(0);
+  for (size_t k = 1; k < runs.size(); ++k) {
+    EXPECT_EQ(runs[k]->report.at("page_sizes"), runs[0]->report.at("page_sizes"));
+    EXPECT_EQ(runs[k]->ctx.layout.wedge_uv, runs[0]->ctx.layout.wedge_uv);
+    EXPECT_EQ(runs[k]->ctx.layout.chart_page, runs[0]->ctx.layout.chart_page);
+  }
+  expect_valid_layout(*runs[0], 4);
+}
 
 TEST(PackersSquareTetris, FillsEnclosedSpaces) {
   // A tall and a short rectangle side by side leave a step; the next wide rectangle bridges the

@@ -40,7 +40,8 @@ PackResult pack_tetris(const PackInput& in, const CommonSettings& s, const std::
   const int lo = s.gutter / 2;
   bound.start();
   for (size_t n = 0; n < order.size(); ++n) {
-    if ((n & 255) == 0) ctx.step("packers.tetris", static_cast<double>(n) / static_cast<double>(order.size()));
+    if (bound.reports_progress() && (n & 255) == 0)
+      ctx.step("packers.tetris", static_cast<double>(n) / static_cast<double>(order.size()));
     const int id = order[n];
     const auto& profs = profiles[static_cast<size_t>(id)];
     packing::place_on_pages(horizons, [&] { return Horizon(width); }, [&](size_t pg) {

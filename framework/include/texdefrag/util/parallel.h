@@ -24,7 +24,8 @@ int hardware_threads();
 
 /// Calls fn(i) for every i in [0, n) on up to thread_count() threads (the calling thread is one of
 /// them); items are handed out one at a time in index order, so put the biggest first when sizes
-/// differ. Returns when every call has returned. When calls throw, the exception of the lowest
+/// differ. Item 0 always runs on the calling thread (so it may call what must stay on that
+/// thread, e.g. a progress callback into Python). Returns when every call has returned. When calls throw, the exception of the lowest
 /// failing index is rethrown (items above it are skipped, items below it still run), so errors
 /// too do not depend on the thread count.
 /// Deterministic use: fn(i) writes only what belongs to item i; combine the items' results in

@@ -3,6 +3,8 @@
 // area rectangle orientation after Liu et al. 2024, section 2.3), page sizing and layout output.
 #include "texdefrag/packers/packing.h"
 
+#include "texdefrag/util/parallel.h"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -283,19 +285,37 @@ PackResult pack_best_width(const PackInput& in, const CommonSettings& s, double 
         if (std::find(widths.begin(), widths.end(), w) == widths.end()) widths.push_back(w);
       }
   }
-  PackResult best;
-  bool have = false;
-  TrialBound bound;
-  for (int w : widths) {
-    PackResult r = pack_with_width(w, bound);
+  TrialBoard board(widths.size());
+  std::vector<PackResult> results(widths.size());
+  parallel_for(widths.size(), [&](size_t i) {
+    TrialBound bound(&board, i);
+    PackResult r = pack_with_width(widths[i], bound);
     size_pages(in, s, r);
-    bound.record(r);
-    if (!have || r.pages < best.pages || (r.pages == best.pages && r.total_area() < best.total_area())) {
-      best = std::move(r);
-      have = true;
-    }
+    board.record(i, r);
+    results[i] = std::move(r);
+  });
+  size_t best = 0;
+  for (size_t i = 1; i < results.size(); ++i)
+    if (results[i].pages < results[best].pages ||
+        (results[i].pages == results[best].pages && results[i].total_area() < results[best].total_area()))
+      best = i;
+  return std::move(results[best]);
+}
+
+void TrialBoard::record(size_t index, const PackResult& r) {
+  if (r.pages != 1) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  single_[index] = r.total_area();
+}
+
+bool TrialBoard::beaten(size_t index, size_t pages, double area) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (size_t j = 0; j < single_.size(); ++j) {
+    const double a = single_[j];
+    if (j == index || a < 0) continue;
+    if (pages > 1 || area > a || (j < index && area >= a)) return true;
   }
-  return best;
+  return false;
 }
 
 void TrialBound::placed(const PackChart& c, const Placement& p, const CommonSettings& s) {
@@ -306,8 +326,10 @@ void TrialBound::placed(const PackChart& c, const Placement& p, const CommonSett
 }
 
 bool TrialBound::hopeless(size_t pages, const CommonSettings& s) const {
+  const double area = static_cast<double>(round_page_side(used_w_, s)) * round_page_side(used_h_, s);
+  if (board_) return board_->beaten(index_, pages, area);
   if (best_single_ < 0) return false;
-  return pages > 1 || static_cast<double>(round_page_side(used_w_, s)) * round_page_side(used_h_, s) >= best_single_;
+  return pages > 1 || area >= best_single_;
 }
 
 void TrialBound::lose(PackResult& r, size_t pages) { r.pages = std::max(2, static_cast<int>(pages) + 1); }

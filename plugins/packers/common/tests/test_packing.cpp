@@ -224,3 +224,23 @@ TEST(PackersCommon, PlaceOnPagesFillsInOrderAndOpensPages) {
     EXPECT_STREQ(e.what(), "packers.test: chart 11 fits no page of width 10");
   }
 }
+
+TEST(PackersCommon, TrialBoardStopsOnlyTrialsThatCannotWin) {
+  // Three width trials; trial 1 packed everything on one page of 100 texels^2.
+  TrialBoard board(3);
+  PackResult one_page;
+  one_page.pages = 1;
+  one_page.sizes = {{10, 10}};
+  PackResult two_pages;
+  two_pages.pages = 2;
+  two_pages.sizes = {{5, 5}, {5, 5}};
+  board.record(2, two_pages);  // not a single page: bounds nothing
+  EXPECT_FALSE(board.beaten(0, 1, 1000.0));
+  board.record(1, one_page);
+  EXPECT_FALSE(board.beaten(0, 1, 100.0));  // an earlier width keeps a tie
+  EXPECT_TRUE(board.beaten(0, 1, 101.0));
+  EXPECT_TRUE(board.beaten(0, 2, 1.0));     // a second page loses to a single page
+  EXPECT_TRUE(board.beaten(2, 1, 100.0));   // a later width loses a tie
+  EXPECT_FALSE(board.beaten(2, 1, 99.0));
+  EXPECT_FALSE(board.beaten(1, 1, 1e9));    // a trial is not bounded by its own result
+}

@@ -21,6 +21,7 @@
 
 #include <array>
 #include <functional>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -116,33 +117,62 @@ struct PackResult {
   double total_area() const;            ///< texels^2 of all pages
 };
 
+/// The single-page results of a set of width trials that may run side by side (pack_best_width):
+/// trial i's page area once it packed everything on one page. Thread-safe.
+class TrialBoard {
+ public:
+  explicit TrialBoard(size_t trials) : single_(trials, -1.0) {}
+  /// Records trial `index`'s finished, sized result (kept only when it is a single page).
+  void record(size_t index, const PackResult& r);
+  /// Whether trial `index`, with `pages` pages open and page 0 of `area` texels^2 so far, cannot
+  /// win: another trial packed everything on one page and this one has more pages, or a smaller
+  /// area, or the same area with an earlier index (ties keep the earlier width).
+  bool beaten(size_t index, size_t pages, double area) const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<double> single_;  ///< per trial, < 0: no single page (yet)
+};
+
 /// Early stop of pack_best_width's width trials, with the same result as packing every width in
-/// full: once one width packed everything on a single page, a later trial that opens a second
-/// page, or whose page 0 already needs at least that page's area, cannot win (pages only grow;
-/// ties keep the earlier width). Used by packers.tetris and packers.square_tetris.
+/// full: once one width packed everything on a single page, a trial that opens a second page, or
+/// whose page 0 already needs at least that page's area (more than it, for a later width), cannot
+/// win (pages only grow; ties keep the earlier width). Whatever order the trials run in, the
+/// chosen width and its layout are those of packing every width in full. Used by packers.tetris
+/// and packers.square_tetris.
 class TrialBound {
  public:
+  /// A trial on its own: compares with what record() noted.
+  TrialBound() = default;
+  /// Trial `index` of the set that `board` records (board outlives the bound).
+  TrialBound(const TrialBoard* board, size_t index) : board_(board), index_(index) {}
   /// Starts a trial (page 0 empty).
   void start() { used_w_ = used_h_ = 0; }
   /// Notes chart c placed with p (its page-0 footprint as size_pages trims it).
   void placed(const PackChart& c, const Placement& p, const CommonSettings& s);
-  /// Whether the running trial, with `pages` pages open, cannot beat the recorded single page.
+  /// Whether the running trial, with `pages` pages open, cannot beat a recorded single page.
   bool hopeless(size_t pages, const CommonSettings& s) const;
   /// Marks a trial stopped as hopeless as losing (more pages than the recorded single page).
   static void lose(PackResult& r, size_t pages);
-  /// Records a finished trial, sized (size_pages); pack_best_width does it.
+  /// Records a finished trial, sized (size_pages), for a bound on its own.
   void record(const PackResult& r);
+  /// Whether this trial reports progress: the first of a set (it runs on the calling thread,
+  /// util/parallel.h), or a trial on its own.
+  bool reports_progress() const { return index_ == 0; }
 
  private:
-  double best_single_ = -1;  ///< texels^2 of the best single page so far, < 0: none yet
+  const TrialBoard* board_ = nullptr;
+  size_t index_ = 0;
+  double best_single_ = -1;  ///< on its own: texels^2 of the best single page so far, < 0: none yet
   int used_w_ = 0, used_h_ = 0;
 };
 
 /// Packs with a few page widths and keeps the result with the fewest pages, then the least page
 /// area. When the charts' padded area is near or above one max_page_size page, only
 /// max_page_size is tried; otherwise `width_trials` widths from initial_page_width at expected
-/// efficiencies 1.0 down to 0.6. Each result is sized (size_pages) once and recorded in a
-/// TrialBound shared by the trials, which the packer may use to stop a hopeless trial early.
+/// efficiencies 1.0 down to 0.6. The widths are packed side by side (util/parallel.h; the result
+/// does not depend on the thread count); each result is sized (size_pages) once and recorded in a
+/// TrialBoard, through which the packer's TrialBound may stop a hopeless trial early.
 /// pack_with_width(width, bound): packs every chart with pages of the given width (texels) and
 /// height limit max_page_size; must return one Placement per chart (page -1 for charts without
 /// faces), or a result marked TrialBound::lose when bound.hopeless stopped it.
