@@ -34,7 +34,7 @@ CLI::App* add_bench_command(CLI::App& app, int& exit_code) {
   CLI::App* sub = app.add_subcommand(
       "bench", "Run configurations on every model of a data set, evaluate, and tabulate (docs/bench.md)");
   bench::BenchOptions& o = args->o;
-  sub->add_option("--data", o.data, "Folder of models (*.obj, recursively) or a manifest.json");
+  sub->add_option("--data", o.data, "Folder of models (every file a model format reads: OBJ, glTF/GLB, OSGB; recursively) or a manifest.json");
   sub->add_option("--configs", o.configs, "Pipeline configurations: files or shipped names (labels are their file stems)");
   sub->add_option("--out", o.out_dir, "Results folder (results.jsonl, results.csv, summary.json, runs/, figures)");
   sub->add_option("-j,--jobs", o.jobs, "Pairs run at once (each in its own process)")->check(CLI::Range(1, 64));

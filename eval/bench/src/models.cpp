@@ -1,6 +1,7 @@
 // Models, configurations and external tools' outputs of a batch (docs/bench.md).
 #include "texdefrag/eval/bench.h"
 
+#include "texdefrag/io/model_format.h"
 #include "texdefrag/pipeline/pipeline.h"
 
 #include <algorithm>
@@ -34,6 +35,16 @@ bool has_obj_extension(const fs::path& p) {
   std::string e = p.extension().string();
   std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return e == ".obj";
+}
+
+/// A model of a folder scan: a file a built-in model format reads (io/model_format.h: OBJ, glTF/GLB,
+/// OSGB), so a production's tiles compare one by one; not JSON (a tileset.json is a whole
+/// production: list it in a manifest).
+bool is_model_file(const fs::path& p) {
+  if (lower_extension(p.string()) == "json") return false;
+  for (const ModelFormat* f : model_formats())
+    if (f->can_read(p.string())) return true;
+  return false;
 }
 
 /// Ids safe as folder names: every character outside [A-Za-z0-9._+=,\[\]-] becomes '_'.
@@ -107,7 +118,7 @@ std::vector<BenchModel> from_folder(const fs::path& root, const std::string& exc
       it.disable_recursion_pending();
       continue;
     }
-    if (!it->is_regular_file() || !has_obj_extension(p)) continue;
+    if (!it->is_regular_file() || !is_model_file(p)) continue;
     if (is_under(absolute_normal(p), excl)) continue;
     // Outputs of texdefrag carry their run report beside them.
     if (fs::exists(p.parent_path() / (p.stem().string() + ".report.json"))) continue;

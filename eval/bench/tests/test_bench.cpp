@@ -115,6 +115,24 @@ TEST(BenchModels, FolderIsRecursiveSortedAndSkipsOutputsAndResults) {
   EXPECT_TRUE(fs::path(models[0].path).is_absolute());
 }
 
+TEST(BenchModels, FolderTakesEveryModelFormatButNotTilesetsOrImages) {
+  // A production's tiles compare one by one: glTF/GLB and OSGB files are models like OBJ; a
+  // tileset JSON (a whole production, for a manifest) and page images are not.
+  const fs::path d = texdefrag::testing::temp_dir();
+  write_text(d / "a.glb", "glTF");
+  write_text(d / "b.gltf", "{}");
+  write_text(d / "Data" / "Tile_+000_+000" / "c.osgb", "x");
+  write_text(d / "d.obj", "v 0 0 0\n");
+  write_text(d / "tileset.json", "{}");
+  write_text(d / "page.jpg", "x");
+  write_text(d / "noext", "glTFxxxx");  // a GLB by its first bytes
+  const auto models = discover_models(d.string());
+  std::vector<std::string> ids;
+  for (const auto& m : models) ids.push_back(m.id);
+  std::sort(ids.begin(), ids.end());
+  EXPECT_EQ(ids, (std::vector<std::string>{"a", "b", "c", "d", "noext"}));
+}
+
 TEST(BenchModels, CollidingStemsUseRelativePaths) {
   const fs::path d = texdefrag::testing::temp_dir();
   write_text(d / "x" / "tile.obj", "v 0 0 0\n");
