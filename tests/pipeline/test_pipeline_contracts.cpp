@@ -121,6 +121,29 @@ class FoldingMerger final : public Merger {
   void merge(StageContext& ctx) override { ctx.atlas.wedge_uv[wedge_at(ctx.atlas, Vec2(19.2, 19.2))] = Vec2(18.56, 19.84); }
 };
 
+/// A merger that files faces 1 and 2 of the fragmented grid (one chart each) into face 0's chart,
+/// face 1 reflected (x -> 2000 - x, far from the others): a reflected input chart turning against
+/// its output chart's majority, so the framework counts it flipped.
+class MirroringMerger final : public Merger {
+ public:
+  void merge(StageContext& ctx) override {
+    Atlas& a = ctx.atlas;
+    for (int w : a.face_wedge[1]) a.wedge_uv[static_cast<size_t>(w)].x() = 2000 - a.wedge_uv[static_cast<size_t>(w)].x();
+    a.face_chart[1] = a.face_chart[2] = a.face_chart[0];
+    a.compact();
+  }
+};
+
+/// A merger that scales every UV by 1.5 and declares a distortion budget of 0.01: each face's ARAP
+/// error is 2 x 0.5^2 = 0.5.
+class StretchingMerger final : public Merger {
+ public:
+  void merge(StageContext& ctx) override {
+    for (Vec2& p : ctx.atlas.wedge_uv) p *= 1.5;
+  }
+  std::optional<double> distortion_budget() const override { return 0.01; }
+};
+
 /// A detector that puts every textured face in region 0 and hands the mergers planarity weights
 /// W (flatness, compactness, normal) as a CPI detector does; W = {-1, ...}: none.
 template <int Flat, int Compact, int Normal>
@@ -253,6 +276,34 @@ TEST(PipelineContracts, MergedChartsMayNotOverlapThemselvesMoreThanTheInput) {
   EXPECT_NE(e.find("mergers.test_folding: the merged charts overlap themselves in 5 pairs of UV triangles, the input only in 0"),
             std::string::npos) << e;
   EXPECT_FALSE(fs::exists(dir + "/out/zero_area.obj"));
+}
+
+// After a merger the framework measures its result (core/distortion.h) and refuses flipped faces
+// and a distortion above the merger's own budget, naming the stage and the figures. By hand: 24
+// faces of equal UV area; the reflected face counts with error (1 - 1)^2 + (-1 - 1)^2 = 4, so the
+// distortion is 4 / 24; scaling by 1.5 gives every face 2 x 0.5^2 = 0.5.
+TEST(PipelineContracts, MergersMayNotFlipFacesOrExceedTheirDistortionBudget) {
+  register_once<MirroringMerger>("mergers.test_mirroring", StageKind::Merger);
+  register_once<StretchingMerger>("mergers.test_stretching", StageKind::Merger);
+  const std::string dir = texdefrag::testing::temp_dir();
+  fs::create_directories(dir + "/m");
+  fs::create_directories(dir + "/s");
+  auto cfg = [](const std::string& merger) {
+    return json{{"detector", {{"type", "detectors.none"}}}, {"merger", {{"type", merger}}},
+                {"packer", {{"type", "packers.square_tetris"}}}};
+  };
+  const std::string flipped = run_error(cfg("mergers.test_mirroring"), dir + "/m");
+  EXPECT_NE(flipped.find("mergers.test_mirroring: after merging, flipped faces 1 (the input: 0), ARAP distortion 0.166667"),
+            std::string::npos) << flipped;
+  const std::string over = run_error(cfg("mergers.test_stretching"), dir + "/s");
+  EXPECT_NE(over.find("mergers.test_stretching: after merging, flipped faces 0 (the input: 0), ARAP distortion 0.5 (the "
+                      "merger's budget: 0.01)"),
+            std::string::npos) << over;
+  EXPECT_FALSE(fs::exists(dir + "/m/out/small.obj"));
+  // No flipped face and a distortion within the budget: nothing to refuse.
+  DistortionSummary within;
+  within.arap = 0.025;
+  EXPECT_NO_THROW(check_merger_distortion("mergers.any", within, 0.025));
 }
 
 // The threshold of the framework's count, by hand: a sliver overlapping a triangle by 1e-9 does

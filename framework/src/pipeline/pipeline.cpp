@@ -15,6 +15,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <sstream>
 
 namespace fs = std::filesystem;
 
@@ -212,12 +213,23 @@ std::string canonical_or_absolute(const std::string& p) {
 
 }  // namespace
 
-void report_merger_figures(const TexturedMesh& mesh, int charts_in, const Atlas& atlas, json& node) {
+DistortionSummary report_merger_figures(const TexturedMesh& mesh, int charts_in, const Atlas& atlas, json& node) {
   node["charts_in"] = charts_in;
   node["charts_out"] = atlas.num_charts;
   const DistortionSummary d = atlas_distortion(mesh, atlas);
   node["distortion_arap"] = d.arap;
   node["flipped_faces"] = d.flipped;
+  return d;
+}
+
+void check_merger_distortion(const std::string& stage, const DistortionSummary& d, std::optional<double> budget) {
+  const bool over = budget && d.arap > *budget * (1 + 1e-9);
+  if (d.flipped == 0 && !over) return;
+  std::ostringstream os;
+  os << stage << ": after merging, flipped faces " << d.flipped << " (the input: 0), ARAP distortion " << d.arap;
+  if (budget) os << " (the merger's budget: " << *budget << ")";
+  os << ", measured by core/distortion.h";
+  throw StageError(os.str());
 }
 
 TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, const Layout& layout,
@@ -436,7 +448,8 @@ void stage_step(json& report, Stage& stage, const StageConfig& sc, StageContext&
     if (dynamic_cast<Detector*>(&stage)) {
       node["regions"] = ctx.regions.num_regions;
     } else if (dynamic_cast<Merger*>(&stage)) {
-      report_merger_figures(*ctx.mesh, charts_in, ctx.atlas, node);
+      const DistortionSummary d = report_merger_figures(*ctx.mesh, charts_in, ctx.atlas, node);
+      check_merger_distortion(sc.type, d, dynamic_cast<Merger&>(stage).distortion_budget());
       node["uv_overlap_pairs"] = stage_overlaps;
     } else {
       node["pages_out"] = ctx.layout.pages.size();

@@ -33,6 +33,8 @@ class ArapMerger final : public Merger {
     i.create = [] { return std::make_unique<ArapMerger>(); };
     return i;
   }
+  /// The engine's global bound (docs/mergers.md step 7), which the pipeline checks after merging.
+  std::optional<double> distortion_budget() const override { return options().get_double("global_bound"); }
   void merge(StageContext& ctx) override {
     const int iterations = static_cast<int>(options().get_int("arap_iterations"));
     const double tolerance = options().get_double("arap_tolerance");

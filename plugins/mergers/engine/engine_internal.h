@@ -69,6 +69,9 @@ struct CellGrid {
   }
 };
 
+/// Counts of input charts by mirror state and turn sign (ChartInfo::groups).
+using OrientationGroups = std::array<std::array<int, 3>, 2>;
+
 struct ChartInfo {
   bool alive = true;
   bool locked = false;
@@ -90,6 +93,13 @@ struct ChartInfo {
   CellGrid segs;  ///< its live boundary segments (current positions), edge ids 3f+k
   std::unordered_map<int, std::vector<int>> adj;       ///< neighbour chart -> seam edge ids
   CellGrid tris;  ///< its triangles with input UV area > 0 (current positions)
+  /// Orientation as the framework's flip measure sees it (core/distortion.h): the sum over its faces
+  /// of input UV area x the sign of the face's current UV turn (a face's turn is its input turn,
+  /// reversed when it is laid out mirrored: the solver keeps every Jacobian's sign).
+  double turn = 0;
+  /// Its input charts (the framework's groups) by mirror state m (0 as input, 1 reflected) and by
+  /// the sign t of their own area-weighted turn (0 negative, 1 zero, 2 positive): groups[m][t].
+  OrientationGroups groups{};
 };
 
 /// Merges the M-method's island lookahead may look ahead (its IslandLookahead(a, b, 5)).
@@ -162,6 +172,8 @@ struct Move {
   double new_sum = 0;                      ///< checks: the global weighted error sum after the move
   std::vector<int> dead;                   ///< checks: live boundary edges the weld made interior
   std::vector<int> moved_ids;              ///< checks: live boundary edges with a moved wedge
+  double turn = 0;                         ///< check_orientation: the merged chart's ChartInfo::turn
+  OrientationGroups groups{};              ///< check_orientation: the merged chart's ChartInfo::groups
 };
 
 class Engine {
@@ -197,6 +209,11 @@ class Engine {
   /// Step 2: welds each group of paired wedges at its mean (one wedge of the bigger chart), repoints
   /// the corners and gives the smaller chart's faces the bigger chart's id.
   void weld(Move& mv);
+  /// After align: whether the merged chart keeps one orientation for its reflected input charts
+  /// (docs/mergers.md step 3, "Orientation"): every input chart laid out mirrored must turn like the
+  /// chart's area-weighted majority, which must not be zero. Fills mv.turn and mv.groups; nullptr
+  /// when it holds, else the rejection `mirror_orientation`.
+  const char* check_orientation(Move& mv) const;
   /// Whether more than half of the seam edges are folded after the weld (rejected as `orientation`).
   bool seam_mostly_folded(const Move& mv) const;
   /// Step 3: wedges within alpha * dmax of the welded ones (Dijkstra over UV lengths), nearest first.

@@ -18,6 +18,11 @@ double seconds_since(Clock::time_point t) { return std::chrono::duration<double>
 bool Engine::try_merge(int a, int b, std::string& reason, Lane& L) {
   Move mv = begin_move(a, b, L);
   align(mv);
+  if (const char* why = check_orientation(mv)) {
+    reason = why;
+    rollback(L);
+    return false;
+  }
   weld(mv);
   if (seam_mostly_folded(mv)) {
     reason = "orientation";
@@ -191,6 +196,28 @@ void Engine::mirror_faces(const std::vector<int>& faces) {
     fmirror_[static_cast<size_t>(f)] ^= 1;
     rest_inv_[static_cast<size_t>(f)].col(1) = -rest_inv_[static_cast<size_t>(f)].col(1);
   }
+}
+
+const char* Engine::check_orientation(Move& mv) const {
+  // The framework measures a reflected input chart through the mirror only when it turns like the
+  // rest of its output chart (core/distortion.h); one that turns against it counts as flipped and
+  // with its full mirror-image error. Where the 3D winding is consistent a reflection makes the
+  // smaller chart turn like the bigger one, so this always holds; across a seam whose two faces are
+  // wound inconsistently in 3D, the fold-free weld is the one that reverses the turn.
+  const ChartInfo& B = charts_[static_cast<size_t>(mv.big)];
+  const ChartInfo& S = charts_[static_cast<size_t>(mv.small)];
+  mv.groups = B.groups;
+  for (size_t m = 0; m < 2; ++m)
+    for (size_t t = 0; t < 3; ++t)
+      mv.groups[mv.mirrored ? 1 - m : m][mv.mirrored ? 2 - t : t] += S.groups[m][t];
+  mv.turn = B.turn + (mv.mirrored ? -S.turn : S.turn);
+  const std::array<int, 3>& reflected = mv.groups[1];
+  if (reflected[0] + reflected[1] + reflected[2] == 0) return nullptr;
+  // note: the framework adds the chart's turn in face order, this sum in merge order: a margin keeps
+  // their signs equal.
+  const double margin = 1e-9 * (B.uv_area + S.uv_area);
+  if (reflected[1] > 0 || std::abs(mv.turn) <= margin) return "mirror_orientation";
+  return reflected[mv.turn > 0 ? 0 : 2] > 0 ? "mirror_orientation" : nullptr;
 }
 
 bool Engine::seam_mostly_folded(const Move& mv) const {
@@ -537,6 +564,8 @@ void Engine::commit(Move& mv) {
   if (mv.mirrored) ++L.rep.accepted_mirrored;
   for (size_t i = 0; i < mv.changed.size(); ++i) err_w_[static_cast<size_t>(mv.changed[i])] = mv.new_err[i];
   L.err_sum = mv.new_sum;
+  C(mv.big).turn = mv.turn;
+  C(mv.big).groups = mv.groups;
   commit_grids(mv);
   commit_boundary(mv);
   commit_chart(mv);

@@ -124,6 +124,10 @@ void Engine::setup_charts() {
     ch.page = at_.chart_page[static_cast<size_t>(c)];
     ch.faces.push_back(static_cast<int>(f));
     ch.uv_area += rest_w_[f];
+    if (rest_w_[f] > 0) {
+      const double sa = signed_uv_area(static_cast<int>(f));
+      ch.turn += rest_w_[f] * ((sa > 0) - (sa < 0));
+    }
     ch.page_area[mesh_.faces[f].page] += rest_w_[f];
     if (topo_.face_degenerate[f]) ch.locked = true;
     detectors::PlaneMoments m;
@@ -153,6 +157,8 @@ void Engine::setup_charts() {
         bestn = n;
       }
     ch.region = best;
+    // Each input chart is one group of the framework's flip measure, as laid out in the input.
+    if (ch.uv_area > 0) ++ch.groups[0][ch.turn > 0 ? 2 : ch.turn < 0 ? 0 : 1];
     if (ch.locked) ++rep_.locked_charts;
     refresh_planarity(c);
   }

@@ -239,6 +239,93 @@ TEST(MergeEngineSteps, MirroredMergeRollsBackTheHandedness) {
   for (int f = 0; f < 4; ++f) EXPECT_FALSE(s.engine.face_mirrored(f)) << f;
 }
 
+/// two_squares with the right square's faces wound the other way in 3D (corners 0, 2, 1: positions
+/// and texels together): the seam's two faces traverse the shared edge (1,0)-(1,1) in the same
+/// direction, so the fold-free weld gives the two squares opposite UV turns.
+TexturedMesh two_squares_inconsistently_wound(bool mirrored, double scale = 1) {
+  TexturedMesh m = two_squares(mirrored, scale);
+  for (size_t f = 2; f < 4; ++f) {
+    std::swap(m.faces[f].v[1], m.faces[f].v[2]);
+    std::swap(m.faces[f].vt[1], m.faces[f].vt[2]);
+  }
+  return m;
+}
+
+TEST(MergeEngineSteps, AReflectionThatWouldTurnAgainstTheChartIsRefused) {
+  // By hand: the left square turns counter-clockwise in UV (+128 texels^2 per face), so does the
+  // right one (mirrored texels, reversed corners: +122.9 at scale 0.98). Their 3D windings disagree
+  // across the seam, so a proper motion folds it: the engine reflects the right square. The weld is
+  // then fold-free and every face keeps its (mirrored) rest shape, but the merged chart turns both
+  // ways: the framework's measure (core/distortion.h) sees a reflected input chart turning against
+  // its chart's majority (the left square's 256 > 245.8 texels^2) and counts its 2 faces flipped.
+  MergeOptions opt;
+  opt.priority = Priority::MMethod;
+  const TexturedMesh mesh = two_squares_inconsistently_wound(true, 0.98);
+  {
+    Steps s(mesh, opt);
+    EXPECT_GT(signed_area(s.run.ctx.atlas, 0), 0);
+    EXPECT_GT(signed_area(s.run.ctx.atlas, 2), 0);
+    EXPECT_TRUE(s.engine.seam_mirrored(s.left, s.right));
+    // The move carried on past the orientation check: every other check passes, the framework
+    // counts flips.
+    detail::Move mv = s.engine.begin_move(s.left, s.right);
+    s.engine.align(mv);
+    EXPECT_TRUE(mv.mirrored);
+    EXPECT_STREQ(s.engine.check_orientation(mv), "mirror_orientation");
+    s.engine.weld(mv);
+    EXPECT_FALSE(s.engine.seam_mostly_folded(mv));
+    s.engine.free_region(mv);
+    s.engine.solve(mv);
+    EXPECT_EQ(s.engine.check(mv), nullptr);
+    s.engine.commit(mv);
+    EXPECT_GT(signed_area(s.run.ctx.atlas, 0), 0);
+    EXPECT_LT(signed_area(s.run.ctx.atlas, 2), 0);
+    Atlas at = s.run.ctx.atlas;
+    at.compact();
+    const DistortionSummary d = atlas_distortion(s.run.mesh, at, s.run.charts.atlas.face_chart);
+    EXPECT_EQ(d.flipped, 2u);
+    EXPECT_EQ(d.mirrored, 0u);
+    EXPECT_GT(d.arap, 1.9);  // the reflected faces' error is (1 - 1)^2 + (-1 - 1)^2 = 4, on half the weight
+  }
+  // try_merge refuses it and restores the atlas.
+  Steps s(mesh, opt);
+  const Atlas before = s.run.ctx.atlas;
+  std::string reason;
+  EXPECT_FALSE(s.engine.try_merge(s.left, s.right, reason));
+  EXPECT_EQ(reason, "mirror_orientation");
+  EXPECT_EQ(s.run.ctx.atlas.wedge_uv, before.wedge_uv);
+  EXPECT_EQ(s.run.ctx.atlas.face_wedge, before.face_wedge);
+  for (int f = 0; f < 4; ++f) EXPECT_FALSE(s.engine.face_mirrored(f)) << f;
+}
+
+TEST(MergeEngineSteps, AnInconsistentlyWoundSeamWithoutReflectionMerges) {
+  // The right square's texels are not mirrored: with its reversed corners it turns clockwise, the
+  // left one counter-clockwise, and the proper weld is fold-free. Nothing is reflected, so the
+  // framework measures every face as is: one chart, nothing flipped, no distortion.
+  test::Run run(two_squares_inconsistently_wound(false));
+  ArapSolver solver;
+  const MergeReport r =
+      run_merges(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{}, solver, {});
+  EXPECT_EQ(r.charts_out, 1u);
+  EXPECT_EQ(r.accepted_mirrored, 0u);
+  EXPECT_EQ(r.flipped_out, 0u);
+  const DistortionSummary d = atlas_distortion(run.mesh, run.ctx.atlas, run.charts.atlas.face_chart);
+  EXPECT_EQ(d.flipped, 0u);
+  EXPECT_LT(d.arap, 1e-12);
+  EXPECT_LT(signed_area(run.ctx.atlas, 0) * signed_area(run.ctx.atlas, 2), 0);  // opposite turns, no fold
+}
+
+TEST(MergeEngineSteps, InconsistentlyWoundMirroredSquaresStayTwoCharts) {
+  test::Run run(two_squares_inconsistently_wound(true, 0.98));
+  ArapSolver solver;
+  const MergeReport r =
+      run_merges(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{}, solver, {});
+  EXPECT_EQ(r.charts_out, 2u);
+  EXPECT_EQ(r.rejected.count("mirror_orientation"), 1u);
+  EXPECT_EQ(r.flipped_out, 0u);
+  EXPECT_LT(r.distortion_out, 1e-12);
+}
+
 TEST(MergeEngineSteps, MirroredChartsMergeIntoOneWithoutFlipsAndTheTextureIsReproduced) {
   test::Run run(two_squares(true));
   ArapSolver solver;

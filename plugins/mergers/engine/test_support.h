@@ -104,7 +104,9 @@ struct Run {
     ASSERT_NE(m, nullptr);
     const int charts_in = ctx.atlas.num_charts;
     m->merge(ctx);
-    report_merger_figures(mesh, charts_in, ctx.atlas, report);  // as the pipeline adds them
+    // As the pipeline adds the framework's figures and checks the merger's distortion contract.
+    const DistortionSummary d = report_merger_figures(mesh, charts_in, ctx.atlas, report);
+    check_merger_distortion(name, d, m->distortion_budget());
   }
 };
 

@@ -30,6 +30,8 @@ class OptCutsMerger final : public Merger {
     i.create = [] { return std::make_unique<OptCutsMerger>(); };
     return i;
   }
+  /// The engine's global bound (docs/mergers.md step 7), which the pipeline checks after merging.
+  std::optional<double> distortion_budget() const override { return options().get_double("global_bound"); }
   void merge(StageContext& ctx) override {
     merge::SdNewtonSettings s;
     s.iterations = static_cast<int>(options().get_int("newton_iterations"));

@@ -14,12 +14,14 @@
 // ("packer.gutter: = -1 outside [0, 64]") and all errors are reported together.
 #pragma once
 
+#include "texdefrag/core/distortion.h"
 #include "texdefrag/io/model_format.h"
 #include "texdefrag/stage/registry.h"
 #include "texdefrag/stage/stage.h"
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -97,8 +99,14 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options);
 
 /// The framework's own figures of a merger's result, as run_pipeline writes them into the merger's
 /// report node: charts_in, charts_out, distortion_arap and flipped_faces (core/distortion.h).
-/// Stages never write these keys (run_pipeline refuses a stage that does).
-void report_merger_figures(const TexturedMesh& mesh, int charts_in, const Atlas& atlas, json& node);
+/// Stages never write these keys (run_pipeline refuses a stage that does). Returns the measure.
+DistortionSummary report_merger_figures(const TexturedMesh& mesh, int charts_in, const Atlas& atlas, json& node);
+
+/// The merger's contract on distortion, checked by run_pipeline after every merger: no flipped face
+/// (the input, measured against itself, has none) and, when the merger declares a budget
+/// (Merger::distortion_budget), the ARAP distortion within it (up to a relative 1e-9: the merger
+/// adds its sums in another order). Throws StageError naming the stage and the figures.
+void check_merger_distortion(const std::string& stage, const DistortionSummary& d, std::optional<double> budget);
 
 /// Builds the output mesh: same positions, normals, faces and order as `input`; one texcoord per
 /// wedge, normalised by the output page sizes; one material per output page named `page_<i>`

@@ -99,6 +99,9 @@ class Merger : public Stage {
   /// Changes ctx.atlas (charts, wedges, UVs). Must keep every face and leave no flipped or
   /// overlapping triangles that were not in the input; must call atlas.compact() at the end.
   virtual void merge(StageContext& ctx) = 0;
+  /// The area-weighted ARAP distortion (core/distortion.h) the merger promises to stay within, from
+  /// its options; none by default. The pipeline checks it after merge() (check_merger_distortion).
+  virtual std::optional<double> distortion_budget() const { return std::nullopt; }
 };
 
 class Packer : public Stage {
