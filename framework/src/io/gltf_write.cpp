@@ -131,9 +131,9 @@ void min_max(const RawAttribute& a, ojson* mn, ojson* mx) {
 /// The edit of one document.
 class DocumentWriter {
  public:
-  DocumentWriter(const Document& d, const GltfModel& in, const TexturedMesh& out, const GltfWriteOptions& options,
+  DocumentWriter(const Document& d, const TexturedMesh& out, const GltfWriteOptions& options,
                  std::vector<std::string> page_uri, const std::vector<EncodedPage>& pages)
-      : d_(d), in_(in), out_(out), options_(options), page_uri_(std::move(page_uri)), pages_(pages), j_(d.json) {
+      : d_(d), out_(out), options_(options), page_uri_(std::move(page_uri)), pages_(pages), j_(d.json) {
     old_view_count_ = j_.contains("bufferViews") ? j_["bufferViews"].size() : 0;
     old_refs_ = view_references();
     count_accessor_references();
@@ -165,7 +165,6 @@ class DocumentWriter {
   void update_extension_lists();
 
   const Document& d_;
-  const GltfModel& in_;
   const TexturedMesh& out_;
   const GltfWriteOptions& options_;
   std::vector<std::string> page_uri_;  ///< per output page: URI for this document, or "" to embed
@@ -697,7 +696,7 @@ GltfOutput write_gltf(const GltfModel& in, const TexturedMesh& out, const std::v
     std::vector<std::string> uri(out.pages.size());
     for (size_t p = 0; p < out.pages.size(); ++p)
       if (!page_file[p].empty()) uri[p] = fs::absolute(page_file[p]).lexically_relative(doc_dir).generic_string();
-    DocumentWriter w((*in.documents)[i], in, out, options, uri, pages);
+    DocumentWriter w((*in.documents)[i], out, options, uri, pages);
     ojson rep;
     result.documents.push_back(w.write(paths, &result.files, &rep));
     result.report["documents"].push_back(nlohmann::json::parse(rep.dump()));
