@@ -37,28 +37,7 @@ std::string grid_model(const std::string& dir, const std::string& name, int n, i
 
 /// A GLB whose primitive is Draco-compressed (sequential or Edgebreaker connectivity).
 void draco_model(const std::string& dir, const std::string& name, bool edgebreaker) {
-  tinygltf::Model m = base_model();
-  const GridData g = grid(2, 1);
-  int pid = 0, tid = 0;
-  const std::vector<uint8_t> d = draco_bytes(g, 14, edgebreaker, &pid, &tid);
-  const int mat = add_textured_material(m, png_bytes(dir, 4, 4));
-  const int dv = add_view(m, d.data(), d.size());
-  tinygltf::Primitive p;
-  p.mode = 4;
-  p.material = mat;
-  p.attributes["POSITION"] = add_accessor(m, -1, 5126, TINYGLTF_TYPE_VEC3, g.pos.size() / 3, {0, 0, 0}, {2, 1, 0});
-  p.attributes["TEXCOORD_0"] = add_accessor(m, -1, 5126, TINYGLTF_TYPE_VEC2, g.uv.size() / 2);
-  p.indices = add_accessor(m, -1, 5125, TINYGLTF_TYPE_SCALAR, g.idx.size());
-  tinygltf::Value::Object attrs, ext;
-  attrs["POSITION"] = tinygltf::Value(pid);
-  attrs["TEXCOORD_0"] = tinygltf::Value(tid);
-  ext["bufferView"] = tinygltf::Value(dv);
-  ext["attributes"] = tinygltf::Value(attrs);
-  p.extensions["KHR_draco_mesh_compression"] = tinygltf::Value(ext);
-  m.meshes[0].primitives.push_back(p);
-  m.extensionsUsed = {"KHR_draco_mesh_compression"};
-  m.extensionsRequired = {"KHR_draco_mesh_compression"};
-  save(m, dir + "/" + name);
+  save(draco_grid_model(dir, grid(2, 1), 2, 1, 4, edgebreaker), dir + "/" + name);
 }
 
 void gltf_seeds(const std::string& dir) {

@@ -199,6 +199,35 @@ inline std::vector<uint8_t> draco_bytes(const GridData& g, int position_bits, bo
   return std::vector<uint8_t>(buf.data(), buf.data() + buf.size());
 }
 
+/// A model whose one primitive is grid `g` (nx x ny quads, from grid(nx, ny)) Draco-compressed with
+/// 14-bit positions (sequential or Edgebreaker connectivity) and a textured material whose page is
+/// page_side^2 texels.
+inline tinygltf::Model draco_grid_model(const std::string& dir, const GridData& g, int nx, int ny, int page_side,
+                                        bool edgebreaker) {
+  tinygltf::Model m = base_model();
+  int pid = 0, tid = 0;
+  const std::vector<uint8_t> d = draco_bytes(g, 14, edgebreaker, &pid, &tid);
+  const int mat = add_textured_material(m, png_bytes(dir, page_side, page_side));
+  const int dv = add_view(m, d.data(), d.size());
+  tinygltf::Primitive p;
+  p.mode = 4;
+  p.material = mat;
+  p.attributes["POSITION"] = add_accessor(m, -1, 5126, TINYGLTF_TYPE_VEC3, g.pos.size() / 3, {0, 0, 0},
+                                          {static_cast<double>(nx), static_cast<double>(ny), 0});
+  p.attributes["TEXCOORD_0"] = add_accessor(m, -1, 5126, TINYGLTF_TYPE_VEC2, g.uv.size() / 2);
+  p.indices = add_accessor(m, -1, 5125, TINYGLTF_TYPE_SCALAR, g.idx.size());
+  tinygltf::Value::Object attrs, ext;
+  attrs["POSITION"] = tinygltf::Value(pid);
+  attrs["TEXCOORD_0"] = tinygltf::Value(tid);
+  ext["bufferView"] = tinygltf::Value(dv);
+  ext["attributes"] = tinygltf::Value(attrs);
+  p.extensions["KHR_draco_mesh_compression"] = tinygltf::Value(ext);
+  m.meshes[0].primitives.push_back(p);
+  m.extensionsUsed = {"KHR_draco_mesh_compression"};
+  m.extensionsRequired = {"KHR_draco_mesh_compression"};
+  return m;
+}
+
 /// The Khronos validator on `files`: "" when every file has 0 errors, "skip" when it is not
 /// installed, else its output.
 inline std::string validator_errors(const std::vector<std::string>& files) {

@@ -185,27 +185,8 @@ TEST(Gltf, FacesOfOnePrimitiveOnTwoPagesSplitIntoTwoPrimitives) {
 TEST(Gltf, DracoInputDecodesAndIsWrittenUncompressedByDefault) {
   const std::string dir = temp_dir();
   for (bool edgebreaker : {false, true}) {
-    tinygltf::Model m = base_model();
     const GridData g = grid(4, 3);
-    int pid = 0, tid = 0;
-    const std::vector<uint8_t> d = draco_bytes(g, 14, edgebreaker, &pid, &tid);
-    const int mat = add_textured_material(m, png_bytes(dir, 32, 32));
-    const int dv = add_view(m, d.data(), d.size());
-    tinygltf::Primitive p;
-    p.mode = 4;
-    p.material = mat;
-    p.attributes["POSITION"] = add_accessor(m, -1, 5126, TINYGLTF_TYPE_VEC3, g.pos.size() / 3, {0, 0, 0}, {4, 3, 0});
-    p.attributes["TEXCOORD_0"] = add_accessor(m, -1, 5126, TINYGLTF_TYPE_VEC2, g.uv.size() / 2);
-    p.indices = add_accessor(m, -1, 5125, TINYGLTF_TYPE_SCALAR, g.idx.size());
-    tinygltf::Value::Object attrs, ext;
-    attrs["POSITION"] = tinygltf::Value(pid);
-    attrs["TEXCOORD_0"] = tinygltf::Value(tid);
-    ext["bufferView"] = tinygltf::Value(dv);
-    ext["attributes"] = tinygltf::Value(attrs);
-    p.extensions["KHR_draco_mesh_compression"] = tinygltf::Value(ext);
-    m.meshes[0].primitives.push_back(p);
-    m.extensionsUsed = {"KHR_draco_mesh_compression"};
-    m.extensionsRequired = {"KHR_draco_mesh_compression"};
+    const tinygltf::Model m = draco_grid_model(dir, g, 4, 3, 32, edgebreaker);
     const std::string sub = edgebreaker ? "/eb" : "/seq";
     save(m, dir + sub + "/in/d.glb");
     const GltfModel r = read_gltf(dir + sub + "/in/d.glb");
