@@ -15,7 +15,10 @@
 
 namespace texdefrag {
 
-constexpr int kPluginAbiVersion = 1;
+/// Raised whenever a class a stage module derives from or calls (stage/stage.h, stage/registry.h)
+/// changes its layout or virtual functions, so a module built against older headers is refused with
+/// an error naming it instead of crashing. 2: Merger::distortion_budget (2026-12-02).
+constexpr int kPluginAbiVersion = 2;
 
 struct RegistryError : std::runtime_error {
   using std::runtime_error::runtime_error;
