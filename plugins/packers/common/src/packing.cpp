@@ -288,7 +288,7 @@ PackResult pack_best_width(const PackInput& in, const CommonSettings& s, double 
   TrialBoard board(widths.size());
   std::vector<PackResult> results(widths.size());
   parallel_for(widths.size(), [&](size_t i) {
-    TrialBound bound(&board, i);
+    TrialBound bound(board, i);
     PackResult r = pack_with_width(widths[i], bound);
     size_pages(in, s, r);
     board.record(i, r);
@@ -327,16 +327,10 @@ void TrialBound::placed(const PackChart& c, const Placement& p, const CommonSett
 
 bool TrialBound::hopeless(size_t pages, const CommonSettings& s) const {
   const double area = static_cast<double>(round_page_side(used_w_, s)) * round_page_side(used_h_, s);
-  if (board_) return board_->beaten(index_, pages, area);
-  if (best_single_ < 0) return false;
-  return pages > 1 || area >= best_single_;
+  return board_->beaten(index_, pages, area);
 }
 
 void TrialBound::lose(PackResult& r, size_t pages) { r.pages = std::max(2, static_cast<int>(pages) + 1); }
-
-void TrialBound::record(const PackResult& r) {
-  if (r.pages == 1 && (best_single_ < 0 || r.total_area() < best_single_)) best_single_ = r.total_area();
-}
 
 double PackResult::total_area() const {
   double a = 0;

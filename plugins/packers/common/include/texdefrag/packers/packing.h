@@ -125,8 +125,9 @@ class TrialBoard {
   /// Records trial `index`'s finished, sized result (kept only when it is a single page).
   void record(size_t index, const PackResult& r);
   /// Whether trial `index`, with `pages` pages open and page 0 of `area` texels^2 so far, cannot
-  /// win: another trial packed everything on one page and this one has more pages, or a smaller
-  /// area, or the same area with an earlier index (ties keep the earlier width).
+  /// win: another trial packed everything on one page and this one has more pages, or already
+  /// needs more area than that page, or as much when the other trial's index is lower (ties keep
+  /// the earlier width).
   bool beaten(size_t index, size_t pages, double area) const;
 
  private:
@@ -142,10 +143,8 @@ class TrialBoard {
 /// and packers.square_tetris.
 class TrialBound {
  public:
-  /// A trial on its own: compares with what record() noted.
-  TrialBound() = default;
   /// Trial `index` of the set that `board` records (board outlives the bound).
-  TrialBound(const TrialBoard* board, size_t index) : board_(board), index_(index) {}
+  TrialBound(const TrialBoard& board, size_t index) : board_(&board), index_(index) {}
   /// Starts a trial (page 0 empty).
   void start() { used_w_ = used_h_ = 0; }
   /// Notes chart c placed with p (its page-0 footprint as size_pages trims it).
@@ -154,16 +153,13 @@ class TrialBound {
   bool hopeless(size_t pages, const CommonSettings& s) const;
   /// Marks a trial stopped as hopeless as losing (more pages than the recorded single page).
   static void lose(PackResult& r, size_t pages);
-  /// Records a finished trial, sized (size_pages), for a bound on its own.
-  void record(const PackResult& r);
-  /// Whether this trial reports progress: the first of a set (it runs on the calling thread,
-  /// util/parallel.h), or a trial on its own.
+  /// Whether this trial reports progress: the first of its set (it runs on the calling thread,
+  /// util/parallel.h).
   bool reports_progress() const { return index_ == 0; }
 
  private:
-  const TrialBoard* board_ = nullptr;
-  size_t index_ = 0;
-  double best_single_ = -1;  ///< on its own: texels^2 of the best single page so far, < 0: none yet
+  const TrialBoard* board_;
+  size_t index_;
   int used_w_ = 0, used_h_ = 0;
 };
 
