@@ -251,6 +251,12 @@ TexturedMesh two_squares_inconsistently_wound(bool mirrored, double scale = 1) {
   return m;
 }
 
+/// Every merge of `run` with the default options and the ARAP solver (the engine's whole loop).
+MergeReport merge_all(test::Run& run) {
+  ArapSolver solver;
+  return run_merges(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{}, solver, {});
+}
+
 TEST(MergeEngineSteps, AReflectionThatWouldTurnAgainstTheChartIsRefused) {
   // By hand: the left square turns counter-clockwise in UV (+128 texels^2 per face), so does the
   // right one (mirrored texels, reversed corners: +122.9 at scale 0.98). Their 3D windings disagree
@@ -303,9 +309,7 @@ TEST(MergeEngineSteps, AnInconsistentlyWoundSeamWithoutReflectionMerges) {
   // left one counter-clockwise, and the proper weld is fold-free. Nothing is reflected, so the
   // framework measures every face as is: one chart, nothing flipped, no distortion.
   test::Run run(two_squares_inconsistently_wound(false));
-  ArapSolver solver;
-  const MergeReport r =
-      run_merges(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{}, solver, {});
+  const MergeReport r = merge_all(run);
   EXPECT_EQ(r.charts_out, 1u);
   EXPECT_EQ(r.accepted_mirrored, 0u);
   EXPECT_EQ(r.flipped_out, 0u);
@@ -317,9 +321,7 @@ TEST(MergeEngineSteps, AnInconsistentlyWoundSeamWithoutReflectionMerges) {
 
 TEST(MergeEngineSteps, InconsistentlyWoundMirroredSquaresStayTwoCharts) {
   test::Run run(two_squares_inconsistently_wound(true, 0.98));
-  ArapSolver solver;
-  const MergeReport r =
-      run_merges(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{}, solver, {});
+  const MergeReport r = merge_all(run);
   EXPECT_EQ(r.charts_out, 2u);
   EXPECT_EQ(r.rejected.count("mirror_orientation"), 1u);
   EXPECT_EQ(r.flipped_out, 0u);
@@ -328,9 +330,7 @@ TEST(MergeEngineSteps, InconsistentlyWoundMirroredSquaresStayTwoCharts) {
 
 TEST(MergeEngineSteps, MirroredChartsMergeIntoOneWithoutFlipsAndTheTextureIsReproduced) {
   test::Run run(two_squares(true));
-  ArapSolver solver;
-  const MergeReport r =
-      run_merges(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{}, solver, {});
+  const MergeReport r = merge_all(run);
   EXPECT_EQ(r.charts_out, 1u);
   EXPECT_EQ(r.accepted_mirrored, 1u);
   EXPECT_EQ(r.mirrored_faces_out, 2u);
