@@ -31,6 +31,14 @@ def make_production(folder, n, seed=1, min_faces=1000, max_faces=2000):
     return folder
 
 
+def fresh_dir(*parts):
+    """The empty folder WORKDIR/parts... (what an earlier run left there is removed first)."""
+    d = os.path.join(WORKDIR, *parts)
+    shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d)
+    return d
+
+
 def copy_production(src, dst):
     shutil.rmtree(dst, ignore_errors=True)
     shutil.copytree(src, dst)

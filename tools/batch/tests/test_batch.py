@@ -39,9 +39,7 @@ class BatchTest(unittest.TestCase):
         cls.prod = common.make_production(os.path.join(common.WORKDIR, "prod4"), 4, seed=3, min_faces=1000, max_faces=1200)
 
     def fresh(self, name):
-        d = os.path.join(self.work, name)
-        shutil.rmtree(d, ignore_errors=True)
-        os.makedirs(d)
+        d = common.fresh_dir("local", name)
         return os.path.join(d, "in"), os.path.join(d, "out")
 
     def test_tasks_command(self):

@@ -49,9 +49,7 @@ class DaskBatchTest(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        cls.work = os.path.join(common.WORKDIR, "dask")
-        shutil.rmtree(cls.work, ignore_errors=True)
-        os.makedirs(cls.work)
+        cls.work = common.fresh_dir("dask")
         cls.prod = common.make_production(os.path.join(common.WORKDIR, "prod8"), 8, seed=11,
                                           min_faces=2000, max_faces=4000)
         port = free_port()
@@ -159,9 +157,7 @@ class DaskSchedulerLostTest(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        cls.work = os.path.join(common.WORKDIR, "dask_lost")
-        shutil.rmtree(cls.work, ignore_errors=True)
-        os.makedirs(cls.work)
+        cls.work = common.fresh_dir("dask_lost")
         cls.prod = common.make_production(os.path.join(common.WORKDIR, "prod8_lost"), 8, seed=11,
                                           min_faces=2000, max_faces=4000)
 

@@ -7,7 +7,6 @@ executable records the variable, then runs the real texdefrag on two synthetic t
 Run by ctest (test_batch_env)."""
 
 import os
-import shutil
 import stat
 import subprocess
 import sys
@@ -20,9 +19,7 @@ import common  # noqa: E402
 @unittest.skipUnless(common.EXE, "TEXDEFRAG_EXE not set (run through ctest)")
 class RunEnvironmentTest(unittest.TestCase):
     def setUp(self):
-        self.work = os.path.join(common.WORKDIR, "env")
-        shutil.rmtree(self.work, ignore_errors=True)
-        os.makedirs(self.work)
+        self.work = common.fresh_dir("env")
         self.prod = common.make_production(os.path.join(common.WORKDIR, "prod2_env"), 2, seed=9)
         self.seen = os.path.join(self.work, "seen.txt")
         self.wrapper = os.path.join(self.work, "wrapper.sh")

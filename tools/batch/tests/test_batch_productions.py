@@ -133,9 +133,7 @@ def tasks_json(path):
 
 class BatchProductionsTest(unittest.TestCase):
     def fresh(self, name):
-        d = os.path.join(common.WORKDIR, "productions", name)
-        shutil.rmtree(d, ignore_errors=True)
-        os.makedirs(d)
+        d = common.fresh_dir("productions", name)
         return os.path.join(d, "in"), os.path.join(d, "out")
 
     def test_tileset(self):

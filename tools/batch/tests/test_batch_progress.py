@@ -10,7 +10,6 @@ import os
 import pty
 import re
 import select
-import shutil
 import subprocess
 import sys
 import time
@@ -82,9 +81,7 @@ def read_all(fd, proc, timeout=240):
 @unittest.skipUnless(common.EXE, "TEXDEFRAG_EXE not set (run through ctest)")
 class ProgressOnATerminalTest(unittest.TestCase):
     def setUp(self):
-        self.work = os.path.join(common.WORKDIR, "progress")
-        shutil.rmtree(self.work, ignore_errors=True)
-        os.makedirs(self.work)
+        self.work = common.fresh_dir("progress")
         self.prod = common.make_production(os.path.join(common.WORKDIR, "prod2_progress"), 2, seed=5)
 
     def run_on(self, out, on_tty, *extra):
