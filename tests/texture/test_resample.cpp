@@ -720,12 +720,12 @@ TEST(TextureResample, LeastSquaresFitBeatsSamplingOnRotatedCharts) {
   compare("rotation 10 deg", 10 * 3.141592653589793 / 180, Vec2(48.3, 47.6), 96);
   compare("rotation 30 deg", 30 * 3.141592653589793 / 180, Vec2(48.3, 47.6), 96);
   compare("rotation 45 deg", 45 * 3.141592653589793 / 180, Vec2(48.3, 47.6), 96);
-  // Pages are fitted in windows of 1024 texels: a chart across a window border gains as much.
+  // Pages are fitted in windows of 256 texels: a chart across window borders gains as much.
   compare("across a fit window border", 0.5, Vec2(1024.3, 1030.6), 1100);
 }
 
 TEST(TextureResample, LeastSquaresFitIsTheSameForAnyThreadCount) {
-  // A page of 4 x 3 fit windows (wavefronts with two windows at once) with charts across window
+  // A page of 13 x 9 fit windows (wavefronts with up to five windows at once) with charts across window
   // borders and corners: the texels are identical with 1, 2 and 4 threads (docs/framework.md,
   // "Threads").
   const Image img = photo_like(64, 64);

@@ -649,8 +649,11 @@ std::array<float, 16> cell_matrix(int mask) {
 /// Texels per side of the windows the fit is solved in: each window's fitted texels are the
 /// unknowns, every texel outside it keeps its current value (windows are solved in raster order,
 /// so a window sees its fitted predecessors). Bounds the fit's memory (about 60 bytes per texel of
-/// a window) whatever the page size.
-constexpr int kFitWindow = 1024;
+/// a window) whatever the page size. 256, not larger: windows of one wavefront run in parallel,
+/// and a real tile's single page of 2-4 MP holds only 2 x 2 windows of 1024 (one window per
+/// wavefront: no parallelism), but 8 x 8 of 256 (up to 4 per wavefront). Measured on three real
+/// tiles (2026-12-02, docs/speed.md): texture PSNR within 0.001 dB of 1024-texel windows.
+constexpr int kFitWindow = 256;
 
 /// The unknowns of one fit window [X0, X1) x [Y0, Y1) (texel indices, row 0 at the top): the
 /// texels written by a resampled face (interior or border) and not copied, numbered in raster order.
