@@ -159,6 +159,7 @@ struct Lane {
 struct Move {
   Lane* lane = nullptr;                    ///< the lane running it (its stamps and rollback log)
   int big = -1, small = -1;                ///< the chart kept and the chart absorbed (smaller UV area)
+  bool self = false;                       ///< a cut closed inside chart big (== small): begin_close
   std::vector<std::pair<int, int>> pairs;  ///< (bigger chart's wedge, smaller chart's wedge) at seam vertices
   std::vector<int> seam_edges;             ///< the seam's topology edges
   bool mirrored = false;                   ///< align: the smaller chart was reflected (improper motion)
@@ -228,6 +229,34 @@ class Engine {
   /// Restores the atlas exactly as it was before the move (positions, corners, charts, handedness).
   void rollback() { rollback(main_); }
   void rollback(Lane& L);
+
+  // ---- closing cuts inside one chart (docs/mergers.md, "Closing cuts"; engine_cuts.cpp)
+  /// The cuts of chart c: its self-seam edges (manifold edges whose two textured, non-degenerate faces
+  /// both lie in c but do not share wedges), split into chains at vertices where the cut branches,
+  /// ends, or meets the chart's other border edges. Each chain lists its edges in path order.
+  std::vector<std::vector<int>> cut_chains(int c) const;
+  /// Starts a move closing `edges` (self-seam edges of chart c): the wedge pairs of the two sides.
+  Move begin_close(int c, const std::vector<int>& edges, Lane& L);
+  /// One closing move: weld the two UV sides of `edges` at their means, refuse (`topology`) when the
+  /// chart's Euler characteristic, boundary loop count, pinched wedges or non-manifold UV edges change
+  /// (it would stop being a disk: a closed surface or a cylinder cannot be flattened), then free
+  /// region, solve and the acceptance checks of a merge; commit or roll back.
+  bool try_close(int c, const std::vector<int>& edges, std::string& reason) { return try_close(c, edges, reason, main_); }
+  bool try_close(int c, const std::vector<int>& edges, std::string& reason, Lane& L);
+  /// The topology figures try_close compares: Euler characteristic V - E + F over wedges, UV edges
+  /// and faces, boundary loops (components of boundary edges), wedges with more than two boundary
+  /// edges (pinched), UV edges with more than two faces.
+  struct CutTopology {
+    long long chi = 0;
+    int loops = 0, pinched = 0, nonmanifold = 0;
+    bool operator==(const CutTopology& o) const {
+      return chi == o.chi && loops == o.loops && pinched == o.pinched && nonmanifold == o.nonmanifold;
+    }
+  };
+  CutTopology chart_topology(int c) const;
+  /// Tries every cut of every live chart (each chain whole, then without its last or first edge when
+  /// the topology refuses it), cheapest gap first, on the main lane with the global budget.
+  void close_cuts(Lane& L);
 
   /// Whether chart `small` is mirrored relative to chart `big`: along most of their seam edges the
   /// two faces would lie on the same side of the welded edge after any proper rigid motion (their UV

@@ -153,7 +153,8 @@ void Engine::weld(Move& mv) {
       }
     }
   }
-  for (int f : C(mv.small).faces) set_chart(f, mv.big);
+  if (!mv.self)
+    for (int f : C(mv.small).faces) set_chart(f, mv.big);
 }
 
 bool Engine::seam_edge_folded(int ei) const {
@@ -438,8 +439,9 @@ const char* Engine::check_boundary(Move& mv) {
       }
     }
   };
-  for (const auto& fk : Sm.boundary)
-    if (ebnd_[3 * static_cast<size_t>(fk.first) + static_cast<size_t>(fk.second)]) consider(fk.first);
+  if (!mv.self)
+    for (const auto& fk : Sm.boundary)
+      if (ebnd_[3 * static_cast<size_t>(fk.first) + static_cast<size_t>(fk.second)]) consider(fk.first);
   for (int f : mv.changed) consider(f);
   for (int r : mv.reps) faces_of_wedge(r, mv.big, [&](int f, int) { consider(f); });
   std::vector<Segment> all, moved;
@@ -463,7 +465,8 @@ const char* Engine::check_boundary(Move& mv) {
     all.push_back(segment(e));
   };
   // The smaller chart's unmoved segments (none after a rigid alignment, kept for safety).
-  for (const auto& [f, k] : Sm.boundary) visit(3 * f + k);
+  if (!mv.self)
+    for (const auto& [f, k] : Sm.boundary) visit(3 * f + k);
   if (!moved.empty()) {
     std::vector<std::array<int, 4>> qr;
     qr.reserve(moved.size());
@@ -503,12 +506,14 @@ const char* Engine::check_triangles(const Move& mv) {
   // The smaller chart's unchanged faces first: they moved rigidly together, so when the smaller chart
   // has no overlapping pair (self_overlap false: none in its input charts, and every accepted merge
   // tested each pair with a moved triangle) no pair of them is tested again.
+  // (A closed cut moves nothing rigidly: the chart's unchanged faces are the bigger chart's below.)
   const ChartInfo& Sm = C(mv.small);
-  for (int f : Sm.faces)
-    if (rest_w_[static_cast<size_t>(f)] > 0 && fchanged_[static_cast<size_t>(f)] != L.epoch) {
-      mt.push_back(tri2(f));
-      grow(mt.back());
-    }
+  if (!mv.self)
+    for (int f : Sm.faces)
+      if (rest_w_[static_cast<size_t>(f)] > 0 && fchanged_[static_cast<size_t>(f)] != L.epoch) {
+        mt.push_back(tri2(f));
+        grow(mt.back());
+      }
   const size_t rigid = Sm.self_overlap ? 0 : mt.size();
   // The changed faces of both charts (every face with fchanged_ == L.epoch is in `changed`).
   for (int f : mv.changed)
@@ -562,6 +567,10 @@ const char* Engine::check_triangles(const Move& mv) {
 void Engine::commit(Move& mv) {
   Lane& L = *mv.lane;
   if (mv.mirrored) ++L.rep.accepted_mirrored;
+  if (mv.self) {
+    ++L.rep.cuts_closed;
+    L.rep.cut_edges_closed += mv.seam_edges.size();
+  }
   for (size_t i = 0; i < mv.changed.size(); ++i) err_w_[static_cast<size_t>(mv.changed[i])] = mv.new_err[i];
   L.err_sum = mv.new_sum;
   C(mv.big).turn = mv.turn;
@@ -575,10 +584,12 @@ void Engine::commit_grids(const Move& mv) {
   ChartInfo& Sm = C(mv.small);
   for (int f : mv.changed)
     if (fowner_[static_cast<size_t>(f)] == mv.big) grid_remove(f);
-  for (int f : Sm.faces) fowner_[static_cast<size_t>(f)] = -1;
-  Sm.tris.clear();
-  for (int f : Sm.faces)
-    if (rest_w_[static_cast<size_t>(f)] > 0) grid_insert(mv.big, f);
+  if (!mv.self) {
+    for (int f : Sm.faces) fowner_[static_cast<size_t>(f)] = -1;
+    Sm.tris.clear();
+    for (int f : Sm.faces)
+      if (rest_w_[static_cast<size_t>(f)] > 0) grid_insert(mv.big, f);
+  }
   for (int f : mv.changed)
     if (rest_w_[static_cast<size_t>(f)] > 0 && fowner_[static_cast<size_t>(f)] != mv.big) grid_insert(mv.big, f);
 }
@@ -596,6 +607,15 @@ void Engine::commit_boundary(const Move& mv) {
   for (int e : mv.moved_ids) {
     seg_remove(e);
     seg_insert(mv.big, e);
+  }
+  if (mv.self) {
+    compact_boundary(Bg);
+    if (opt_.priority == Priority::MMethod) {
+      Bg.border = 0;
+      for (const auto& [f, k] : Bg.boundary)
+        if (ebnd_[3 * static_cast<size_t>(f) + static_cast<size_t>(k)]) Bg.border += edge_uv_len(f, k);
+    }
+    return;
   }
   for (const auto& [f, k] : Sm.boundary) {
     const int e = 3 * f + k;
@@ -619,6 +639,10 @@ void Engine::commit_boundary(const Move& mv) {
 
 void Engine::commit_chart(const Move& mv) {
   ChartInfo& Bg = C(mv.big);
+  if (mv.self) {  // a closed cut: the same faces, pages and neighbours
+    ++Bg.version;
+    return;
+  }
   ChartInfo& Sm = C(mv.small);
   Bg.faces.insert(Bg.faces.end(), Sm.faces.begin(), Sm.faces.end());
   Sm.faces.clear();

@@ -465,6 +465,10 @@ void add_counters(MergeReport& to, const MergeReport& from) {
   to.accepted += from.accepted;
   to.accepted_mirrored += from.accepted_mirrored;
   for (const auto& [k, v] : from.rejected) to.rejected[k] += v;
+  to.cuts_attempted += from.cuts_attempted;
+  to.cuts_closed += from.cuts_closed;
+  to.cut_edges_closed += from.cut_edges_closed;
+  for (const auto& [k, v] : from.cut_rejected) to.cut_rejected[k] += v;
   to.optimisation_seconds += from.optimisation_seconds;
   to.check_seconds += from.check_seconds;
 }
@@ -494,6 +498,11 @@ MergeReport Engine::run(const Progress& progress) {
     }
     rep_.accepted_second_pass = main_.rep.accepted - before;
     rep_.second_pass_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
+  }
+  if (opt_.close_cuts) {
+    const auto t2 = Clock::now();
+    close_cuts(main_);
+    rep_.close_cuts_seconds = std::chrono::duration<double>(Clock::now() - t2).count();
   }
   if (progress) progress(1.0);
   add_counters(rep_, main_.rep);

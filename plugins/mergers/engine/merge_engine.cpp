@@ -56,6 +56,10 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
               "The second pass runs this many times with local bounds second_pass_local_bound / 2^(steps-1), ..., / 2, "
               "x 1 (cheap merges first); attempts are reset between steps")
           .range(1, 20),
+      opt_bool("close_cuts", false,
+               "After the last pass, close cuts inside one chart (weld the two UV sides of a self-seam) when the "
+               "chart stays a disk and the merge checks (flips, folds, fans, overlaps, local and global distortion) "
+               "hold"),
       opt_bool("cross_page", true,
                "Merge charts whose texels lie on different input pages (each face keeps its own page's texels as "
                "rest shape); false keeps every chart on one input page"),
@@ -73,6 +77,7 @@ MergeOptions merge_options_from(const Options& o) {
   m.max_attempts = static_cast<int>(o.get_int("max_attempts"));
   m.max_free_vertices = static_cast<int>(o.get_int("max_free_vertices"));
   m.cross_page = o.get_bool("cross_page");
+  m.close_cuts = o.get_bool("close_cuts");
   m.second_pass = o.get_enum<SecondPass>("second_pass", {{"none", SecondPass::None}, {"across_regions", SecondPass::AcrossRegions}});
   m.second_pass_priority =
       o.get_enum<Priority>("second_pass_priority", {{"planarity", Priority::Planarity}, {"mmethod", Priority::MMethod}});
@@ -100,6 +105,7 @@ json MergeReport::to_json() const {
   j["first_pass_lanes"] = first_pass_lanes;
   j["first_pass_seconds"] = first_pass_seconds;
   j["second_pass_seconds"] = second_pass_seconds;
+  j["close_cuts_seconds"] = close_cuts_seconds;
   json rej = json::object();
   size_t total = 0;
   for (const auto& [k, v] : rejected) {
@@ -108,6 +114,13 @@ json MergeReport::to_json() const {
   }
   j["rejected"] = rej;
   j["rejected_total"] = total;
+  j["cut_edges_in"] = cut_edges_in;
+  j["cuts_attempted"] = cuts_attempted;
+  j["cuts_closed"] = cuts_closed;
+  j["cut_edges_closed"] = cut_edges_closed;
+  json crej = json::object();
+  for (const auto& [k, v] : cut_rejected) crej[k] = v;
+  j["cut_rejected"] = crej;
   j["distortion_in"] = distortion_in;
   j["optimisation_seconds"] = optimisation_seconds;
   j["check_seconds"] = check_seconds;

@@ -57,6 +57,9 @@ struct MergeOptions {
   double second_pass_local_bound = 0.5;  ///< local_bound during the (last step of the) second pass
   bool second_pass_seam_refusal = true;  ///< keep the M-method's seam_too_short refusal in the second pass
   int second_pass_steps = 1;  ///< second-pass steps, local bounds second_pass_local_bound / 2^(steps-1) ... x 1
+  /// After the last pass, close cuts inside charts (weld the two UV sides of self-seams) where the
+  /// chart stays a disk and the checks of a merge hold (docs/mergers.md, "Closing cuts").
+  bool close_cuts = false;
 };
 
 /// The option declarations shared by every merger built on the engine (name, default, range, help).
@@ -84,7 +87,13 @@ struct MergeReport {
   size_t first_pass_lanes = 0;  ///< regions with candidate pairs: the first pass's independent queues
   double first_pass_seconds = 0;   ///< wall time of the first pass (its lanes run side by side)
   double second_pass_seconds = 0;  ///< wall time of the second pass (one queue)
+  double close_cuts_seconds = 0;   ///< wall time of closing cuts (close_cuts)
   std::map<std::string, size_t> rejected;  ///< by reason
+  size_t cut_edges_in = 0;       ///< self-seam edges (both sides in one chart) when closing started
+  size_t cuts_attempted = 0;     ///< closing moves tried (close_cuts)
+  size_t cuts_closed = 0;        ///< closing moves accepted
+  size_t cut_edges_closed = 0;   ///< self-seam edges they welded
+  std::map<std::string, size_t> cut_rejected;  ///< closing moves refused, by reason (`topology` or a merge's)
   double distortion_in = 0;           ///< global ARAP distortion of the atlas given to the engine
   double distortion_out = 0;          ///< after merging (recomputed from scratch)
   size_t flipped_out = 0;             ///< faces with det J <= 0 after merging (must be 0)

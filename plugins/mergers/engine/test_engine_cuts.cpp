@@ -1,0 +1,183 @@
+// Closing cuts inside one chart (docs/mergers.md, "Closing cuts") on meshes small enough to check by
+// hand: a slit that can close (the chart stays a disk) and a ring of squares cut open once (closing
+// the cut would make a cylinder, which cannot be flattened).
+#include "arap_solver.h"
+#include "engine_internal.h"
+#include "test_support.h"
+
+#include "texdefrag/core/distortion.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+namespace texdefrag::merge {
+namespace {
+
+/// Adds face (a, b, c) with texels ta, tb, tc (one texcoord per corner) on page 0 of a 64^2 page.
+void add_face(TexturedMesh& m, std::array<int, 3> v, std::array<Vec2, 3> t) {
+  Face f;
+  f.page = 0;
+  f.source_line = static_cast<int>(m.faces.size()) + 1;
+  for (size_t k = 0; k < 3; ++k) {
+    f.v[k] = v[k];
+    f.vt[k] = static_cast<int>(m.texcoords.size());
+    m.texcoords.push_back(t[k] / 64.0);
+  }
+  m.faces.push_back(f);
+}
+
+TexturedMesh empty_mesh() {
+  TexturedMesh m;
+  Page pg;
+  pg.material = "m";
+  pg.width = pg.height = 64;
+  pg.image_path = "unused.png";
+  m.pages.push_back(pg);
+  return m;
+}
+
+/// A 2 x 2 grid of unit squares in z = 0 (vertex (i, j) = 3j + i, two counter-clockwise triangles
+/// per square, 16 texels per unit at offset 8), slit along the edge from (1, 0) to (1, 1): the left
+/// square's corner at (1, 0) sits at x = 1 - d, the right square's at x = 1 + d (8 texels apart for
+/// d = 0.25); (1, 1) is one wedge (the slit's tip). One chart, 10 wedges, one self-seam edge.
+TexturedMesh slit_grid(double d) {
+  TexturedMesh m = empty_mesh();
+  for (int j = 0; j <= 2; ++j)
+    for (int i = 0; i <= 2; ++i) m.positions.emplace_back(i, j, 0);
+  auto tex = [&](int v, int side) {
+    const double x = v % 3, y = v / 3;
+    const double dx = v == 1 ? (side < 0 ? -d : d) : 0;
+    return Vec2(8 + 16 * (x + dx), 8 + 16 * y);
+  };
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < 2; ++i) {
+      const int a = 3 * j + i, b = a + 1, c = a + 4, e = a + 3;
+      const int side = i == 0 ? -1 : 1;  // which copy of vertex 1 the square uses
+      add_face(m, {a, b, c}, {tex(a, side), tex(b, side), tex(c, side)});
+      add_face(m, {a, c, e}, {tex(a, side), tex(c, side), tex(e, side)});
+    }
+  return m;
+}
+
+/// Four unit squares around the sides of a unit box (a ring: a cylinder in 3D), unrolled into one
+/// strip of texels u = 8 + 12 s, v = 8 + 12 z: the box corner (0, 0) has two copies, at u = 8 (the
+/// first square) and u = 56 (the last one). One chart; its only self-seam is the vertical edge at
+/// that corner.
+TexturedMesh ring_strip() {
+  TexturedMesh m = empty_mesh();
+  const double cx[4] = {0, 1, 1, 0}, cy[4] = {0, 0, 1, 1};
+  for (int h = 0; h <= 1; ++h)
+    for (int k = 0; k < 4; ++k) m.positions.emplace_back(cx[k], cy[k], h);
+  for (int s = 0; s < 4; ++s) {
+    const int n = (s + 1) % 4;
+    const int a = s, b = n, c = n + 4, e = s + 4;
+    const Vec2 ta(8 + 12 * s, 8), tb(8 + 12 * (s + 1), 8), tc(8 + 12 * (s + 1), 20), te(8 + 12 * s, 20);
+    add_face(m, {a, b, c}, {ta, tb, tc});
+    add_face(m, {a, c, e}, {ta, tc, te});
+  }
+  return m;
+}
+
+struct CutRun {
+  test::Run run;
+  ArapSolver solver;
+  detail::Engine engine;
+  explicit CutRun(TexturedMesh m, const MergeOptions& opt = {})
+      : run(std::move(m)), engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver) {
+    engine.setup();
+  }
+  /// Distinct wedges the faces use.
+  size_t wedges() const {
+    std::set<int> w;
+    for (const auto& fw : run.ctx.atlas.face_wedge) w.insert(fw.begin(), fw.end());
+    return w.size();
+  }
+};
+
+TEST(MergeEngineCuts, ASlitIsOneChainOfOneEdgeAndClosesIntoADisk) {
+  CutRun r(slit_grid(0.25));
+  ASSERT_EQ(r.run.ctx.atlas.num_charts, 1);
+  EXPECT_EQ(r.wedges(), 10u);
+  const auto chains = r.engine.cut_chains(0);
+  ASSERT_EQ(chains.size(), 1u);
+  ASSERT_EQ(chains[0].size(), 1u);
+  const Edge& e = r.run.topo.edges[static_cast<size_t>(chains[0][0])];
+  const auto& vp = r.run.topo.vertex_of_position;
+  EXPECT_EQ(std::set<int>({e.a, e.b}), std::set<int>({vp[1], vp[4]}));  // (1, 0) and (1, 1)
+  const detail::Engine::CutTopology before = r.engine.chart_topology(0);
+  EXPECT_EQ(before.chi, 1);  // a disk: 10 wedges - 17 UV edges + 8 faces
+  EXPECT_EQ(before.loops, 1);
+  std::string reason;
+  ASSERT_TRUE(r.engine.try_close(0, chains[0], reason)) << reason;
+  // One wedge fewer; the slit's two copies of (1, 0) are one; no cut left; still a disk.
+  EXPECT_EQ(r.wedges(), 9u);
+  const Atlas& at = r.run.ctx.atlas;
+  EXPECT_EQ(at.face_wedge[0][1], at.face_wedge[2][0]);
+  EXPECT_TRUE(r.engine.cut_chains(0).empty());
+  const detail::Engine::CutTopology after = r.engine.chart_topology(0);
+  EXPECT_EQ(after.chi, 1);  // 9 - 16 + 8
+  EXPECT_EQ(after.loops, 1);
+  // The slit's faces were sheared by +-d in the input; closing costs a little distortion, no flip.
+  const DistortionSummary ds = atlas_distortion(r.run.mesh, at);
+  EXPECT_EQ(ds.flipped, 0u);
+  EXPECT_GT(ds.arap, 0.0);
+  EXPECT_LT(ds.arap, 0.025);
+  EXPECT_NEAR(r.engine.global_distortion(), ds.arap, 1e-9);
+}
+
+TEST(MergeEngineCuts, AWideSlitOverTheBudgetIsRefusedAndRestored) {
+  MergeOptions opt;
+  opt.global_bound = 1e-4;
+  CutRun r(slit_grid(0.25), opt);
+  const Atlas before = r.run.ctx.atlas;
+  std::string reason;
+  EXPECT_FALSE(r.engine.try_close(0, r.engine.cut_chains(0)[0], reason));
+  EXPECT_EQ(reason, "global_distortion");
+  EXPECT_EQ(r.run.ctx.atlas.wedge_uv, before.wedge_uv);
+  EXPECT_EQ(r.run.ctx.atlas.face_wedge, before.face_wedge);
+}
+
+TEST(MergeEngineCuts, TheCutOfARingIsKeptBecauseACylinderCannotBeFlattened) {
+  CutRun r(ring_strip());
+  ASSERT_EQ(r.run.ctx.atlas.num_charts, 1);
+  EXPECT_EQ(r.wedges(), 10u);
+  const auto chains = r.engine.cut_chains(0);
+  ASSERT_EQ(chains.size(), 1u);
+  ASSERT_EQ(chains[0].size(), 1u);
+  const Edge& e = r.run.topo.edges[static_cast<size_t>(chains[0][0])];
+  const auto& vp = r.run.topo.vertex_of_position;
+  EXPECT_EQ(std::set<int>({e.a, e.b}), std::set<int>({vp[0], vp[4]}));  // the box corner (0, 0) at z = 0 and 1
+  const Atlas before = r.run.ctx.atlas;
+  std::string reason;
+  EXPECT_FALSE(r.engine.try_close(0, chains[0], reason));
+  EXPECT_EQ(reason, "topology");  // closed: 8 wedges - 16 + 8 = 0, two boundary loops
+  EXPECT_EQ(r.run.ctx.atlas.wedge_uv, before.wedge_uv);
+  EXPECT_EQ(r.run.ctx.atlas.face_wedge, before.face_wedge);
+  EXPECT_EQ(r.engine.cut_chains(0).size(), 1u);
+}
+
+/// The stage: mergers.arap with close_cuts closes the slit (and reports it) and keeps the ring's cut;
+/// without it both stay (the behaviour before close_cuts existed).
+TEST(MergeEngineCuts, TheStageClosesCutsOnlyWhenAsked) {
+  for (bool close : {false, true}) {
+    test::Run slit(slit_grid(0.25));
+    slit.merge("mergers.arap", {{"close_cuts", close}});
+    test::expect_valid_atlas(slit);
+    EXPECT_EQ(slit.report["cuts_closed"].get<int>(), close ? 1 : 0);
+    EXPECT_EQ(slit.report["cut_edges_in"].get<int>(), close ? 1 : 0);
+    std::set<int> w;
+    for (const auto& fw : slit.ctx.atlas.face_wedge) w.insert(fw.begin(), fw.end());
+    EXPECT_EQ(w.size(), close ? 9u : 10u);
+    test::Run ring(ring_strip());
+    ring.merge("mergers.arap", {{"close_cuts", close}});
+    test::expect_valid_atlas(ring);
+    EXPECT_EQ(ring.report["cuts_closed"].get<int>(), 0);
+    if (close) {
+      EXPECT_EQ(ring.report["cut_rejected"]["topology"].get<int>(), 1);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace texdefrag::merge
