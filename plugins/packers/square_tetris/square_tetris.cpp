@@ -284,9 +284,21 @@ RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s) {
 /// A page's occupancy for the outline tail: per row, its free runs (sorted intervals), its longest
 /// free run, and per block of rows the longest free run (to skip rows that cannot hold a mask's
 /// widest row). Rows above the allocated ones are empty. Filling a run splits at most one interval.
+/// Free runs shorter than `min_run` (the shortest run of any mask searched on this page) are not
+/// kept: no mask run can lie in one, so every search gives the same answer without them. Each row
+/// keeps its free runs at kLevels lengths: level l holds the runs of at least min_run * 4^l cells,
+/// and a mask run of len cells is looked up in the highest level whose runs can be that short, so
+/// the search steps over no run shorter than a quarter of len (same answer: shorter runs were
+/// skipped one by one before).
+/// note: with gutter g every dilated run is at least g + 1 cells long; on t016_L19 (best.json's
+/// merged atlas, one page width) a third of the 55k free runs left were shorter than 5 cells, and
+/// the 6.2M run checks of its searches stepped over 62M free runs, most of them too short.
 class RasterPage {
  public:
-  RasterPage(int width, int height) : width_(width), height_(height) {}
+  RasterPage(int width, int height, int min_run) : width_(width), height_(height) {
+    const int base = std::clamp(min_run, 1, 1 << 20);  // INT_MAX when no mask is searched
+    for (int l = 0; l < kLevels; ++l) level_min_[l] = base << (2 * l);
+  }
   int used() const { return used_; }
 
   void fill_rect(int x, int y, int w, int h) {
@@ -305,7 +317,7 @@ class RasterPage {
   bool first_fit(const RunMask& m, int max_top, int& bx, int& by) {
     if (m.w > width_ || m.wide_len == 0) return false;
     max_top = std::min(max_top, height_);
-    const int rows = static_cast<int>(free_.size());
+    const int rows = static_cast<int>(maxrun_.size());
     int start = 0;
     if (m.shape >= 0) {
       if (resume_.size() <= static_cast<size_t>(m.shape)) resume_.resize(static_cast<size_t>(m.shape) + 1, 0);
@@ -356,6 +368,21 @@ class RasterPage {
   };
   static constexpr int kBlock = 64;  ///< rows per block of the longest-run maxima
 
+  /// Index of the first run of `row` that ends after cell v (b > v), or row.size().
+  /// note: the branch-free binary search (conditional moves) was 19% of leftmost_at's samples as
+  /// std::upper_bound, whose branches the processor cannot predict.
+  static size_t first_ending_after(const std::vector<Run>& row, int v) {
+    if (row.empty()) return 0;
+    const Run* base = row.data();
+    size_t n = row.size();
+    while (n > 1) {
+      const size_t half = n / 2;
+      base = base[half - 1].b <= v ? base + half : base;
+      n -= half;
+    }
+    return static_cast<size_t>(base - row.data()) + (base->b <= v ? 1 : 0);
+  }
+
   /// Leftmost x where m fits with its lower-left corner at row y, or -1.
   /// note: the set of offsets where every run of m lies in a free run, as sorted intervals,
   /// intersected run by run (in m.checks order: widest, bottom, top, then spread rows) until it is
@@ -366,11 +393,11 @@ class RasterPage {
     X.assign(1, Run{0, width_ - m.w + 1});
     for (const auto& [r, a, len] : m.checks) {
       const size_t yr = static_cast<size_t>(y + r);
-      if (yr >= free_.size()) continue;  // an empty row
-      const std::vector<Run>& row = free_[yr];
+      if (yr >= maxrun_.size()) continue;  // an empty row
+      const std::vector<Run>& row = free_[level(len)][yr];
       next.clear();
       // the free runs that can hold [x + a, x + a + len) for some x in X
-      auto it = std::upper_bound(row.begin(), row.end(), X.front().a + a, [](int v, const Run& f) { return v < f.b; });
+      auto it = row.begin() + static_cast<long>(first_ending_after(row, X.front().a + a));
       size_t i = 0;
       for (; it != row.end() && it->a + (-a) < X.back().b; ++it) {
         if (it->b - it->a < len) continue;
@@ -393,15 +420,16 @@ class RasterPage {
   int lowest_rect(int w, int h, int from, int last) const {
     std::vector<Run>& X = cand_;
     std::vector<Run>& next = scratch_;
-    const int rows = static_cast<int>(free_.size());
+    const int rows = static_cast<int>(maxrun_.size());
+    const int lv = level(w);
     for (int y = std::max(0, from); y <= last;) {
       X.assign(1, Run{0, width_ - w + 1});
       int fail = -1;
       for (int r = std::min(h, rows - y) - 1; r >= 0; --r) {
-        const std::vector<Run>& row = free_[static_cast<size_t>(y + r)];
+        const std::vector<Run>& row = free_[lv][static_cast<size_t>(y + r)];
         if (maxrun_[static_cast<size_t>(y + r)] < w) { fail = r; break; }
         next.clear();
-        auto it = std::upper_bound(row.begin(), row.end(), X.front().a, [](int v, const Run& f) { return v < f.b; });
+        auto it = row.begin() + static_cast<long>(first_ending_after(row, X.front().a));
         size_t i = 0;
         for (; it != row.end() && it->a < X.back().b; ++it) {
           if (it->b - it->a < w) continue;
@@ -422,7 +450,7 @@ class RasterPage {
   }
   /// First row >= from whose longest free run is at least k (rows above the used ones are free).
   int next_row(int from, int k) const {
-    const int rows = static_cast<int>(free_.size());
+    const int rows = static_cast<int>(maxrun_.size());
     int r = from;
     while (r < rows) {
       if (r % kBlock == 0 && blockmax_[static_cast<size_t>(r / kBlock)] < k) {
@@ -434,33 +462,44 @@ class RasterPage {
     }
     return rows;
   }
+  /// The level whose runs a mask run of len cells is looked up in.
+  int level(int len) const {
+    int l = 0;
+    while (l + 1 < kLevels && level_min_[l + 1] <= len) ++l;
+    return l;
+  }
   /// Marks cells [a, b) of row r occupied.
   void occupy(int r, int a, int b) {
-    while (static_cast<int>(free_.size()) <= r) {
-      free_.push_back({Run{0, width_}});
+    while (static_cast<int>(maxrun_.size()) <= r) {
+      for (auto& lv : free_) lv.push_back({Run{0, width_}});
       maxrun_.push_back(width_);
-      if (blockmax_.size() * kBlock < free_.size()) blockmax_.push_back(width_);
+      if (blockmax_.size() * kBlock < maxrun_.size()) blockmax_.push_back(width_);
     }
-    std::vector<Run>& row = free_[static_cast<size_t>(r)];
-    auto it = std::upper_bound(row.begin(), row.end(), a, [](int v, const Run& f) { return v < f.b; });
-    while (it != row.end() && it->a < b) {
-      const Run f = *it;
-      it = row.erase(it);
-      if (f.b > b) it = row.insert(it, Run{b, f.b});
-      if (f.a < a) it = std::next(row.insert(it, Run{f.a, a}));
-      if (f.b > b) break;
+    for (int l = 0; l < kLevels; ++l) {
+      std::vector<Run>& row = free_[l][static_cast<size_t>(r)];
+      auto it = row.begin() + static_cast<long>(first_ending_after(row, a));
+      while (it != row.end() && it->a < b) {
+        const Run f = *it;
+        it = row.erase(it);
+        if (f.b - b >= level_min_[l]) it = row.insert(it, Run{b, f.b});
+        if (a - f.a >= level_min_[l]) it = std::next(row.insert(it, Run{f.a, a}));
+        if (f.b > b) break;
+      }
     }
-    int best = 0;
-    for (const Run& f : row) best = std::max(best, f.b - f.a);
+    int best = 0;  // the longest run is in the highest level holding any run
+    for (int l = kLevels - 1; l >= 0 && best == 0; --l)
+      for (const Run& f : free_[l][static_cast<size_t>(r)]) best = std::max(best, f.b - f.a);
     maxrun_[static_cast<size_t>(r)] = best;
     const size_t blk = static_cast<size_t>(r / kBlock);
-    const int r0 = static_cast<int>(blk) * kBlock, r1 = std::min(static_cast<int>(free_.size()), r0 + kBlock);
+    const int r0 = static_cast<int>(blk) * kBlock, r1 = std::min(static_cast<int>(maxrun_.size()), r0 + kBlock);
     int bm = 0;
     for (int i = r0; i < r1; ++i) bm = std::max(bm, maxrun_[static_cast<size_t>(i)]);
     blockmax_[blk] = bm;
   }
+  static constexpr int kLevels = 3;
   int width_, height_, used_ = 0;
-  std::vector<std::vector<Run>> free_;  ///< per row: free runs, left to right
+  int level_min_[kLevels];                       ///< shortest run kept at each level
+  std::vector<std::vector<Run>> free_[kLevels];  ///< per level, per row: free runs, left to right
   std::vector<int> maxrun_;             ///< per row: longest free run
   std::vector<int> blockmax_;           ///< per block of kBlock rows: longest free run
   mutable std::vector<Run> cand_, scratch_;  ///< leftmost_at's offset sets
@@ -489,6 +528,12 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
     suffix_min[i] = std::min({suffix_min[i + 1], packing::padded_w(c, 0, s), packing::padded_h(c, 0, s),
                               packing::padded_w(c, 1, s), packing::padded_h(c, 1, s)});
   }
+  // Shortest run of any tail mask: the rasters keep only free runs at least this long.
+  int min_run = INT_MAX;
+  for (size_t n = tail; n < order.size() && drops.empty(); ++n)
+    for (const RunMask& m : profiles[static_cast<size_t>(order[n])])
+      for (const auto& row : m.rows)
+        for (const auto& run : row) min_run = std::min(min_run, run.second);
   const int lo = s.gutter / 2;
   for (size_t n = 0; n < order.size(); ++n) {
     if (bound.reports_progress() && (n & 1023) == 0)
@@ -537,7 +582,7 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
         // 3. small charts: lowest position of the outline anywhere on the page (holes included).
         if (boxes.size() < pages.size()) boxes.resize(pages.size());
         while (rasters.size() < pages.size()) {
-          rasters.emplace_back(width, s.max_page_size);
+          rasters.emplace_back(width, s.max_page_size, min_run);
           // Charts placed as rectangles occupy their dilated outline only: the tail may use the
           // corners of their boxes.
           for (const auto& [id, q, b] : boxes[rasters.size() - 1]) {

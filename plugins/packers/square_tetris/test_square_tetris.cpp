@@ -240,3 +240,42 @@ TEST(PackersSquareTetris, TailOrdersKeepTheSmallestPacking) {
   }
   EXPECT_GE(other_wins, 1);
 }
+
+namespace {
+/// Lowest output UV corner of each polygon's chart (polygon i = faces 2i and 2i + 1: quads only).
+std::vector<Vec2> quad_corners(const PackRun& run, size_t quads) {
+  std::vector<Vec2> lo(quads, Vec2(1e9, 1e9));
+  for (size_t f = 0; f < 2 * quads; ++f)
+    for (int w : run.ctx.atlas.face_wedge[f]) lo[f / 2] = lo[f / 2].cwiseMin(run.ctx.layout.wedge_uv[static_cast<size_t>(w)]);
+  return lo;
+}
+}  // namespace
+
+TEST(PackersSquareTetris, OutlineTailLowestThenLeftmostAroundNarrowGaps) {
+  // Every chart in the outline tail, no turns, one page width, gutter 4 (masks grown by 2 below and
+  // left, 2 above and right). Page width 64: C's padded 64 cells. Area order: C (64 x 14 padded),
+  // A and B (29 x 24, or 30 x 24), then the 5 x 5 padded single cell D.
+  // - C: (0, 0) -> box corner (2, 2). A: (0, 14) -> (2, 16). B: (29, 14) -> (31, 16) [or (30, 14)].
+  // - Rows 14..37 keep cells [58, 64) free (6 cells) beside B: D's 5-cell mask rests there at
+  //   (58, 14) -> (60, 16). With A, B one cell wider the gap is [60, 64), 4 cells, too narrow for
+  //   any mask (the page's search keeps no free run shorter than its shortest mask run): D goes
+  //   above them, at (0, 38) -> (2, 40).
+  const json opts = {{"width_trials", 1}, {"tail_side", 4096}, {"allow_rotation", false},
+                     {"order_trials_max_charts", 0}, {"gutter", 4}, {"page_multiple", 32}};
+  for (const int ab : {25, 26}) {
+    const std::vector<std::vector<Vec2>> polys = {
+        {{0, 0}, {60, 0}, {60, 10}, {0, 10}},                                                     // C
+        {{0, 0}, {double(ab), 0}, {double(ab), 20}, {0, 20}},                                     // A
+        {{100, 100}, {100.0 + ab, 100}, {100.0 + ab, 120}, {100, 120}},                           // B
+        {{300.25, 300.25}, {300.75, 300.25}, {300.75, 300.75}, {300.25, 300.75}},                 // D: one cell
+    };
+    auto run = run_packer(kName, polygon_mesh(polys, 1024), opts);
+    expect_valid_layout(*run, 4);
+    EXPECT_EQ(run->report.at("page_sizes"), json::parse("[[64, 64]]"));
+    const std::vector<Vec2> lo = quad_corners(*run, 4);
+    EXPECT_EQ(lo[0], Vec2(2, 2));
+    EXPECT_EQ(lo[1], Vec2(2, 16));
+    EXPECT_EQ(lo[2], Vec2(ab == 25 ? 31 : 32, 16));
+    EXPECT_EQ(lo[3], ab == 25 ? Vec2(60.25, 16.25) : Vec2(2.25, 40.25)) << "A and B " << ab << " cells wide";
+  }
+}
