@@ -148,6 +148,7 @@ bool Engine::try_close(int c, const std::vector<int>& edges, std::string& reason
     return false;
   }
   free_region(mv);
+  if (opt_.fan_targets) free_fan_rings(mv);
   solve(mv);
   const auto t0 = std::chrono::steady_clock::now();
   const char* why = check(mv);

@@ -222,6 +222,13 @@ class Engine {
   /// Step 4: solves the local problem on the free wedges and writes the result into the atlas;
   /// fills mv.prob_faces, mv.solved and mv.changed.
   void solve(Move& mv);
+  /// With fan_targets, after free_region: frees the wedges around each free boundary wedge whose
+  /// merged fan's input angles add up to more than a turn (up to max_free_vertices).
+  void free_fan_rings(Move& mv);
+  /// With fan_targets, inside solve: target shapes (inverse rest edge matrices) for the problem
+  /// faces around boundary wedges whose input angles add up to more than a turn (docs/mergers.md
+  /// step 6, "Fan targets").
+  void fan_targets(const Move& mv, std::unordered_map<int, Mat2>& target);
   /// Step 5: the acceptance checks, cheapest first; the rejection reason, or nullptr when accepted.
   const char* check(Move& mv);
   /// Step 6: makes an accepted move permanent (distortion sums, grids, boundary, chart data, adjacency).
@@ -282,6 +289,7 @@ class Engine {
   Vec2& uv(int w) { return at_.wedge_uv[static_cast<size_t>(w)]; }
   Tri2 tri2(int f) const {
     Tri2 t;
+    t.face = f;
     for (int k = 0; k < 3; ++k) {
       t.w[static_cast<size_t>(k)] = wedge(f, k);
       t.p[static_cast<size_t>(k)] = at_.wedge_uv[static_cast<size_t>(wedge(f, k))];
@@ -307,6 +315,24 @@ class Engine {
   void faces_of_wedge(int w, int c, Fn&& fn) const;
   /// Whether the two faces of seam edge ei lie on the same side of it in UV (a folded weld).
   bool seam_edge_folded(int ei) const;
+
+  /// The atlas as it was before the current move of lane L (its rollback log), for the checks that
+  /// count only what a move adds: face f's triangle then (corners and positions), and whether two
+  /// faces of the merged chart lay in one chart then.
+  struct Before {
+    const Lane* lane = nullptr;
+    std::unordered_map<int, Vec2> uv;
+    std::unordered_map<int, std::array<int, 3>> fw;
+  };
+  void load_before(const Lane& L, Before& b) const;
+  Tri2 tri2_before(const Before& b, int f) const;
+  bool same_chart_before(const Move& mv, int f, int g) const {
+    const int e = mv.lane->epoch;
+    return (fsmall_[static_cast<size_t>(f)] == e) == (fsmall_[static_cast<size_t>(g)] == e);
+  }
+  /// Whether the overlapping pair (a, b) of the merged chart is one the move added: the faces were in
+  /// two charts, or their triangles did not overlap before it.
+  bool overlap_is_new(const Move& mv, Before& b, const Tri2& x, const Tri2& y) const;
 
   // ---- the acceptance checks (check() runs them in this order)
   const char* check_shapes(const Move& mv);
@@ -369,6 +395,7 @@ class Engine {
 
   // ---- per-move scratch with epoch stamps (Lane::epoch; each element is only stamped by its region's lane)
   std::vector<int> wstamp_, wmoved_, wrep_, wvisit_, wdone_, wfan_, fstamp_, fchanged_;
+  std::vector<int> fsmall_;  ///< face was in the move's smaller chart (stamp Lane::epoch)
   std::vector<double> wdist_;
   std::vector<int> wlocal_, wlocal_stamp_;  ///< solve: local index of a wedge in the problem, its stamp
   // ---- per-chart triangle grids (cell size tri_cell_, shared by all charts)

@@ -5,6 +5,7 @@
 #include "texdefrag/core/distortion.h"
 
 #include <chrono>
+#include <unordered_set>
 #include <functional>
 #include <limits>
 
@@ -30,6 +31,7 @@ bool Engine::try_merge(int a, int b, std::string& reason, Lane& L) {
     return false;
   }
   free_region(mv);
+  if (opt_.fan_targets) free_fan_rings(mv);
   solve(mv);
   struct CheckTimer {
     double& acc;
@@ -56,6 +58,7 @@ Move Engine::begin_move(int a, int b, Lane& L) {
   mv.small = mv.big == a ? b : a;
   L.saved_small = mv.small;
   L.saved_mirrored = false;
+  for (int f : C(mv.small).faces) fsmall_[static_cast<size_t>(f)] = L.epoch;
   pair_points(mv.big, mv.small, mv.pairs);
   mv.seam_edges = C(mv.big).adj[mv.small];
   return mv;
@@ -272,6 +275,40 @@ void Engine::free_region(Move& mv) {
   }
 }
 
+void Engine::free_fan_rings(Move& mv) {
+  // A boundary fan whose input angles add up to more than a turn can only close at fan_targets'
+  // angles when the wedges around it may move too: with a small weld displacement the free region
+  // is the welded wedges alone and their neighbours are pinned where the input put them.
+  constexpr double kTwoPi = 6.283185307179586;
+  const double turn = kTwoPi * (1 - opt_.fan_margin);
+  std::unordered_set<int> in(mv.free_w.begin(), mv.free_w.end());
+  const size_t n = mv.free_w.size();
+  for (size_t i = 0; i < n; ++i) {
+    const int w = mv.free_w[i];
+    double rest = 0;
+    bool boundary = false, zero = false;
+    faces_of_wedge(w, mv.big, [&](int g, int k) {
+      if (rest_w_[static_cast<size_t>(g)] == 0) zero = true;
+      if (is_boundary(g, k, mv.big) || is_boundary(g, (k + 2) % 3, mv.big)) boundary = true;
+      const Vec2 P = mesh_.corner_texel(g, k), A = mesh_.corner_texel(g, (k + 1) % 3) - P,
+                 B = mesh_.corner_texel(g, (k + 2) % 3) - P;
+      rest += std::abs(std::atan2(A.x() * B.y() - A.y() * B.x(), A.dot(B)));
+    });
+    if (!boundary || zero || rest <= turn) continue;
+    faces_of_wedge(w, mv.big, [&](int g, int k) {
+      for (int j = 1; j < 3; ++j) {
+        const int u = wedge(g, (k + j) % 3);
+        if (static_cast<int>(mv.free_w.size()) >= opt_.max_free_vertices || in.count(u)) continue;
+        bool pinned = false;
+        faces_of_wedge(u, mv.big, [&](int h, int) { pinned = pinned || rest_w_[static_cast<size_t>(h)] == 0; });
+        if (pinned) continue;
+        in.insert(u);
+        mv.free_w.push_back(u);
+      }
+    });
+  }
+}
+
 void Engine::solve(Move& mv) {
   Lane& L = *mv.lane;
   LocalProblem lp;
@@ -297,9 +334,12 @@ void Engine::solve(Move& mv) {
     // The whole chart is free: pin the farthest free wedge so rigid motions are fixed.
     --lp.num_free;
   }
+  std::unordered_map<int, Mat2> target;
+  if (opt_.fan_targets) fan_targets(mv, target);
   for (int f : mv.prob_faces) {
     lp.tri.push_back({local(wedge(f, 0)), local(wedge(f, 1)), local(wedge(f, 2))});
-    lp.rest_inv.push_back(rest_inv_[static_cast<size_t>(f)]);
+    auto it = target.find(f);
+    lp.rest_inv.push_back(it != target.end() ? it->second : rest_inv_[static_cast<size_t>(f)]);
     lp.weight.push_back(rest_w_[static_cast<size_t>(f)]);
   }
   L.free_total += lp.num_free;
@@ -321,6 +361,81 @@ void Engine::solve(Move& mv) {
       fchanged_[static_cast<size_t>(f)] = L.epoch;
       mv.changed.push_back(f);
     });
+}
+
+namespace {
+/// Angle of corner k of the triangle p (radians, in [0, pi]).
+double corner_angle(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 u = a - p, v = b - p;
+  return std::abs(std::atan2(u.x() * v.y() - u.y() * v.x(), u.dot(v)));
+}
+}  // namespace
+
+void Engine::fan_targets(const Move& mv, std::unordered_map<int, Mat2>& target) {
+  Lane& L = *mv.lane;
+  // A boundary wedge of the merged chart whose faces' input UV angles add up to more than a full
+  // turn cannot keep them: the solver, pulled towards the input shapes, would open the fan past
+  // 2 pi (fan_overlap). Its problem faces get target shapes whose angles there are scaled down so
+  // that, with the fixed angles of its faces outside the problem, the fan closes at kFanTurn; the
+  // other two angles of each such face grow in proportion, its area stays. Acceptance still measures
+  // every face against its input UV triangle, so the compression is paid from the same budgets.
+  constexpr double kTwoPi = 6.283185307179586, kPi = 3.141592653589793;
+  const double kFanTurn = kTwoPi * (1 - opt_.fan_margin);
+  std::unordered_map<int, std::array<double, 3>> scale;
+  std::vector<int> seen;
+  for (int f : mv.prob_faces)
+    for (int k = 0; k < 3; ++k) {
+      const int w = wedge(f, k);
+      if (wfan_[static_cast<size_t>(w)] == -L.epoch) continue;
+      wfan_[static_cast<size_t>(w)] = -L.epoch;
+      double rest = 0, fixed = 0;
+      bool boundary = false, zero = false;
+      faces_of_wedge(w, mv.big, [&](int g, int kk) {
+        if (rest_w_[static_cast<size_t>(g)] == 0) zero = true;
+        if (is_boundary(g, kk, mv.big) || is_boundary(g, (kk + 2) % 3, mv.big)) boundary = true;
+        if (fchanged_[static_cast<size_t>(g)] == L.epoch) {
+          rest += corner_angle(mesh_.corner_texel(g, kk), mesh_.corner_texel(g, (kk + 1) % 3), mesh_.corner_texel(g, (kk + 2) % 3));
+        } else {
+          fixed += corner_angle(uv(wedge(g, kk)), uv(wedge(g, (kk + 1) % 3)), uv(wedge(g, (kk + 2) % 3)));
+        }
+      });
+      const double room = kFanTurn - fixed;
+      if (!boundary || zero || rest <= room || room <= 0) continue;
+      const double s = room / rest;
+      faces_of_wedge(w, mv.big, [&](int g, int kk) {
+        if (fchanged_[static_cast<size_t>(g)] != L.epoch) return;
+        auto it = scale.emplace(g, std::array<double, 3>{1, 1, 1}).first;
+        it->second[static_cast<size_t>(kk)] *= s;
+      });
+    }
+  for (const auto& [f, sc] : scale) {
+    std::array<double, 3> ang;
+    for (int k = 0; k < 3; ++k)
+      ang[static_cast<size_t>(k)] = corner_angle(mesh_.corner_texel(f, k), mesh_.corner_texel(f, (k + 1) % 3), mesh_.corner_texel(f, (k + 2) % 3));
+    // Scaled corners take their scaled angles, the others share what is left of pi in proportion.
+    double fixed_sum = 0, free_sum = 0;
+    for (size_t k = 0; k < 3; ++k) (sc[k] < 1 ? fixed_sum : free_sum) += sc[k] < 1 ? sc[k] * ang[k] : ang[k];
+    if (free_sum <= 0 || fixed_sum >= kPi) continue;
+    std::array<double, 3> a;
+    for (size_t k = 0; k < 3; ++k) a[k] = sc[k] < 1 ? sc[k] * ang[k] : ang[k] * (kPi - fixed_sum) / free_sum;
+    // The triangle with these angles and the input triangle's area, turning like its rest shape.
+    const double l1 = std::sin(a[1]), l2 = std::sin(a[2]);  // sides opposite corners 1 and 2
+    Vec2 p1(l2, 0), p2(l1 * std::cos(a[0]), l1 * std::sin(a[0]));
+    const double area = 0.5 * std::abs(p1.x() * p2.y() - p1.y() * p2.x());
+    if (!(area > 0)) continue;
+    const double r = std::sqrt(rest_w_[static_cast<size_t>(f)] / area);
+    p1 *= r;
+    p2 *= r;
+    if (rest_inv_[static_cast<size_t>(f)].determinant() < 0) {
+      p1.y() = -p1.y();
+      p2.y() = -p2.y();
+    }
+    Mat2 Dm;
+    Dm.col(0) = p1;
+    Dm.col(1) = p2;
+    target[f] = Dm.inverse();
+  }
+  if (!target.empty()) ++L.rep.fan_target_moves;
 }
 
 const char* Engine::check(Move& mv) {
@@ -395,8 +510,35 @@ const char* Engine::check_distortion(Move& mv) {
   return nullptr;
 }
 
+void Engine::load_before(const Lane& L, Before& b) const {
+  if (b.lane == &L) return;
+  b.lane = &L;
+  // note: each entry is the first save of the move, i.e. the state before it.
+  for (const auto& [w, p] : L.saved_uv) b.uv.emplace(w, p);
+  for (const auto& [f, fw] : L.saved_fw) b.fw.emplace(f, fw);
+}
+
+Tri2 Engine::tri2_before(const Before& b, int f) const {
+  Tri2 t;
+  t.face = f;
+  auto fi = b.fw.find(f);
+  for (size_t k = 0; k < 3; ++k) {
+    t.w[k] = fi != b.fw.end() ? fi->second[k] : wedge(f, static_cast<int>(k));
+    auto ui = b.uv.find(t.w[k]);
+    t.p[k] = ui != b.uv.end() ? ui->second : at_.wedge_uv[static_cast<size_t>(t.w[k])];
+  }
+  return t;
+}
+
+bool Engine::overlap_is_new(const Move& mv, Before& b, const Tri2& x, const Tri2& y) const {
+  if (x.face < 0 || y.face < 0 || !same_chart_before(mv, x.face, y.face)) return true;
+  load_before(*mv.lane, b);
+  return !triangles_overlap(tri2_before(b, x.face), tri2_before(b, y.face));
+}
+
 const char* Engine::check_fans(const Move& mv) {
   Lane& L = *mv.lane;
+  Before before;
   // The triangles around a wedge must not wrap over each other. Boundary segments that share a
   // wedge are never tested for crossing, so a boundary wedge whose incident angles add up to 2 pi
   // or more (the merge nearly closed a fan whose input angles exceed 2 pi) overlaps without any
@@ -406,7 +548,23 @@ const char* Engine::check_fans(const Move& mv) {
       const int w = wedge(f, k);
       if (wfan_[static_cast<size_t>(w)] == L.epoch) continue;
       wfan_[static_cast<size_t>(w)] = L.epoch;
-      if (fan_overlaps(w, mv.big)) return "fan_overlap";
+      if (!fan_overlaps(w, mv.big)) continue;
+      // A fan that overlapped before the move (an input chart's own overlap: noisy photogrammetry)
+      // is not the move's doing when the move only kept or narrowed it: an unwelded wedge whose faces
+      // turn no further around it than before.
+      if (wrep_[static_cast<size_t>(w)] != L.epoch) {
+        load_before(L, before);
+        double now = 0, then = 0;
+        faces_of_wedge(w, mv.big, [&](int f, int k) {
+          const Tri2 a = tri2(f), b = tri2_before(before, f);
+          const size_t i = static_cast<size_t>(k), j = static_cast<size_t>((k + 1) % 3), l = static_cast<size_t>((k + 2) % 3);
+          now += std::abs(std::atan2(orient2d(a.p[i], a.p[j], a.p[l]), (a.p[j] - a.p[i]).dot(a.p[l] - a.p[i])));
+          then += std::abs(std::atan2(orient2d(b.p[i], b.p[j], b.p[l]), (b.p[j] - b.p[i]).dot(b.p[l] - b.p[i])));
+        });
+        constexpr double kTwoPi = 6.283185307179586;
+        if (then >= kTwoPi * (1 - 1e-9) && now <= then + 1e-9) continue;
+      }
+      return "fan_overlap";
     }
   return nullptr;
 }
@@ -514,7 +672,8 @@ const char* Engine::check_triangles(const Move& mv) {
         mt.push_back(tri2(f));
         grow(mt.back());
       }
-  const size_t rigid = Sm.self_overlap ? 0 : mt.size();
+  // (Pairs of them overlap as they did before the move: never new, so never tested.)
+  const size_t rigid = mt.size();
   // The changed faces of both charts (every face with fchanged_ == L.epoch is in `changed`).
   for (int f : mv.changed)
     if (rest_w_[static_cast<size_t>(f)] > 0) {
@@ -561,7 +720,11 @@ const char* Engine::check_triangles(const Move& mv) {
     };
     Bg.tris.query(qr, visit);
   }
-  return any_triangle_overlap(mt, rest, rigid) ? "overlap" : nullptr;
+  // Only a pair the move added counts: an input chart's own overlapping triangles (multi-sheeted
+  // photogrammetry charts) that keep overlapping do not refuse every move touching them.
+  Before before;
+  auto is_new = [&](const Tri2& x, const Tri2& y) { return overlap_is_new(mv, before, x, y); };
+  return any_triangle_overlap(mt, rest, rigid, is_new) ? "overlap" : nullptr;
 }
 
 void Engine::commit(Move& mv) {

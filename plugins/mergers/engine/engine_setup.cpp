@@ -208,6 +208,7 @@ void Engine::setup_seams_and_grids() {
   wlocal_stamp_.assign(at_.wedge_uv.size(), 0);
   fstamp_.assign(nf, 0);
   fchanged_.assign(nf, 0);
+  fsmall_.assign(nf, 0);
   // Triangle grids: cell = twice the mean longest UV edge of the textured faces.
   fowner_.assign(nf, -1);
   fcells_.assign(nf, {1, 1, 0, 0});
@@ -465,6 +466,7 @@ void add_counters(MergeReport& to, const MergeReport& from) {
   to.accepted += from.accepted;
   to.accepted_mirrored += from.accepted_mirrored;
   for (const auto& [k, v] : from.rejected) to.rejected[k] += v;
+  to.fan_target_moves += from.fan_target_moves;
   to.cuts_attempted += from.cuts_attempted;
   to.cuts_closed += from.cuts_closed;
   to.cut_edges_closed += from.cut_edges_closed;

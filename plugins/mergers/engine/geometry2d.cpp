@@ -191,7 +191,8 @@ bool triangles_overlap(const Tri2& a, const Tri2& b) {
   return false;
 }
 
-bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2>& all, size_t rigid) {
+bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2>& all, size_t rigid,
+                          const std::function<bool(const Tri2&, const Tri2&)>& is_new) {
   if (moved.empty()) return false;
   Vector2d lo = moved[0].p[0], hi = lo;
   double len = 0;
@@ -240,7 +241,7 @@ bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2
           if (self >= 0 && static_cast<size_t>(self) < rigid && static_cast<size_t>(i) < rigid) continue;
           const Tri2& m = moved[static_cast<size_t>(i)];
           if (m.w == t.w) continue;
-          if (triangles_overlap(t, m)) return true;
+          if (triangles_overlap(t, m) && (!is_new || is_new(t, m))) return true;
         }
     return false;
   };

@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <functional>
 #include <vector>
 
 namespace texdefrag::merge {
@@ -55,6 +56,7 @@ bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>&
 /// A triangle with the wedge ids of its corners (shared ids mark adjacency).
 struct Tri2 {
   std::array<int, 3> w{-1, -1, -1};
+  int face = -1;  ///< the mesh face it is (callers' tag; -1: none)
   std::array<Eigen::Vector2d, 3> p;
 };
 
@@ -70,6 +72,9 @@ bool triangles_overlap(const Tri2& a, const Tri2& b);
 /// @param all    the other triangles of the same chart
 /// @param rigid  moved[0, rigid) moved together rigidly and are known not to overlap each other (the
 ///               caller's invariant): pairs within that prefix are not tested (0: test every pair)
-bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2>& all, size_t rigid = 0);
+/// @param is_new optional: an overlapping pair counts only when is_new(a, b) is true (e.g. the pair did
+///               not overlap before a move); pairs it dismisses are skipped and the search goes on
+bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2>& all, size_t rigid = 0,
+                          const std::function<bool(const Tri2&, const Tri2&)>& is_new = {});
 
 }  // namespace texdefrag::merge

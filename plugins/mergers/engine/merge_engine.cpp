@@ -60,6 +60,10 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
                "After the last pass, close cuts inside one chart (weld the two UV sides of a self-seam) when the "
                "chart stays a disk and the merge checks (flips, folds, fans, overlaps, local and global distortion) "
                "hold"),
+      opt_bool("fan_targets", false,
+               "Solve with target shapes whose angles close every boundary fan of the merged chart that its input UV "
+               "angles would open past a full turn (the move is still measured against the input UV triangles)"),
+      opt_double("fan_margin", 0.01, "Fan targets close a boundary fan at 2 pi (1 - fan_margin)").range(0, 0.5),
       opt_bool("cross_page", true,
                "Merge charts whose texels lie on different input pages (each face keeps its own page's texels as "
                "rest shape); false keeps every chart on one input page"),
@@ -78,6 +82,8 @@ MergeOptions merge_options_from(const Options& o) {
   m.max_free_vertices = static_cast<int>(o.get_int("max_free_vertices"));
   m.cross_page = o.get_bool("cross_page");
   m.close_cuts = o.get_bool("close_cuts");
+  m.fan_targets = o.get_bool("fan_targets");
+  m.fan_margin = o.get_double("fan_margin");
   m.second_pass = o.get_enum<SecondPass>("second_pass", {{"none", SecondPass::None}, {"across_regions", SecondPass::AcrossRegions}});
   m.second_pass_priority =
       o.get_enum<Priority>("second_pass_priority", {{"planarity", Priority::Planarity}, {"mmethod", Priority::MMethod}});
@@ -114,6 +120,7 @@ json MergeReport::to_json() const {
   }
   j["rejected"] = rej;
   j["rejected_total"] = total;
+  j["fan_target_moves"] = fan_target_moves;
   j["cut_edges_in"] = cut_edges_in;
   j["cuts_attempted"] = cuts_attempted;
   j["cuts_closed"] = cuts_closed;

@@ -60,6 +60,9 @@ struct MergeOptions {
   /// After the last pass, close cuts inside charts (weld the two UV sides of self-seams) where the
   /// chart stays a disk and the checks of a merge hold (docs/mergers.md, "Closing cuts").
   bool close_cuts = false;
+  /// Solve with target shapes that close over-full boundary fans (docs/mergers.md step 6).
+  bool fan_targets = false;
+  double fan_margin = 0.01;  ///< fan targets close at 2 pi (1 - fan_margin)
 };
 
 /// The option declarations shared by every merger built on the engine (name, default, range, help).
@@ -89,6 +92,7 @@ struct MergeReport {
   double second_pass_seconds = 0;  ///< wall time of the second pass (one queue)
   double close_cuts_seconds = 0;   ///< wall time of closing cuts (close_cuts)
   std::map<std::string, size_t> rejected;  ///< by reason
+  size_t fan_target_moves = 0;   ///< moves whose solve used fan targets (fan_targets)
   size_t cut_edges_in = 0;       ///< self-seam edges (both sides in one chart) when closing started
   size_t cuts_attempted = 0;     ///< closing moves tried (close_cuts)
   size_t cuts_closed = 0;        ///< closing moves accepted

@@ -3,6 +3,7 @@
 #include "arap_solver.h"
 #include "engine_internal.h"
 #include "test_support.h"
+#include "test_overlaps.h"
 
 #include "texdefrag/core/distortion.h"
 #include "texdefrag/texture/resample.h"
@@ -386,5 +387,39 @@ TEST(MergeEngineSteps, MirroredChartsMergeIntoOneWithoutFlipsAndTheTextureIsRepr
   EXPECT_GT(checked, 100u);
 }
 
+
+// An input chart that overlaps itself (multi-sheeted photogrammetry charts: t078_L15 has 149 such
+// pairs) used to refuse every merge it took part in: the triangle test counted its own old pair.
+// Here the right square gets a fifth face (positions 2, 6, 5; 6 = (2.5, 0.5)) whose UV corner 6 lies
+// folded back inside face 2's UV triangle, sharing edge 2-5 with it on the same side: one
+// overlapping pair inside the right chart, far from the seam. The merge moves that chart rigidly and
+// welds at exact texels, so it adds no pair: accepted, and the merged chart holds the same one pair.
+TEST(MergeEngineSteps, AnInputChartsOwnOverlapDoesNotRefuseTheMerge) {
+  TexturedMesh m = two_squares(false);
+  m.positions.emplace_back(2.5, 0.5, 0);
+  Face f;
+  f.page = 0;
+  f.source_line = 5;
+  const int v[3] = {2, 6, 5};
+  const Vec2 tx[3] = {Vec2(56, 24), Vec2(52, 20), Vec2(40, 24)};  // (52, 20) is inside face 2's (56,8) (56,24) (40,24)
+  for (int k = 0; k < 3; ++k) {
+    f.v[static_cast<size_t>(k)] = v[k];
+    f.vt[static_cast<size_t>(k)] = static_cast<int>(m.texcoords.size());
+    m.texcoords.push_back(tx[k] / 64.0);
+  }
+  m.faces.push_back(f);
+  MergeOptions opt;
+  opt.priority = Priority::MMethod;
+  Steps s(m, opt);
+  ASSERT_EQ(s.run.ctx.atlas.num_charts, 2);
+  ASSERT_EQ(s.run.ctx.atlas.face_chart[4], s.right);
+  EXPECT_TRUE(s.engine.chart_info(s.right).self_overlap);
+  std::string reason;
+  EXPECT_TRUE(s.engine.try_merge(s.left, s.right, reason)) << reason;
+  const auto [in, out] = test::overlaps_in_out(s.run);
+  EXPECT_EQ(in, 1u);
+  EXPECT_EQ(out, 1u);
+  EXPECT_EQ(s.run.ctx.atlas.face_chart[0], s.run.ctx.atlas.face_chart[4]);  // one chart
+}
 }  // namespace
 }  // namespace texdefrag::merge
