@@ -41,18 +41,21 @@ void check_osgb_header(const std::string& path) {
     throw FormatError(path + ": not a binary OSGB file (" + (in.gcount() < 8 ? std::string("shorter than its header") : std::string("bad magic")) + ")");
 }
 
-/// Reads a node file or throws FormatError with osgDB's reason.
+/// Reads a node file or throws FormatError with osgDB's reason: first in a bounded child process
+/// (osgb_bounded.cpp), then, when that child read it, here.
 osg::ref_ptr<osg::Node> read_node(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw FormatError(path + ": no such file");
+  if (!fs::is_regular_file(path, ec)) throw FormatError(path + ": not a regular file");
   if (lower_extension(path) == "osgb") check_osgb_header(path);
+  const uintmax_t bytes = fs::file_size(path, ec);
+  std::lock_guard<std::mutex> lock(osgb_detail::osgdb_mutex());
+  osgb_detail::read_in_bounded_child(path, osgb_detail::limits_for(ec ? 0 : static_cast<uint64_t>(bytes)));
   osgDB::ReaderWriter::ReadResult rr;
   try {
     rr = osgDB::Registry::instance()->readNode(path, nullptr);
   } catch (const std::exception& e) {
-    // note: osgDB sizes strings and arrays from the file before reading them, so a malformed file
-    // can ask for gigabytes (found by fuzz_osgb): std::bad_alloc (or length_error) is an error
-    // naming the file, not an escape.
+    // note: the child read the same bytes within its limits; this stays for a file changed since.
     throw FormatError(path + ": cannot read the scene graph (malformed OSGB?): " + e.what());
   }
   if (!rr.validNode()) {

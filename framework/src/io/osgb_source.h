@@ -2,6 +2,7 @@
 #pragma once
 
 #include "texdefrag/io/model_format.h"
+#include "texdefrag/io/osgb.h"
 
 #include <osg/Geometry>
 #include <osg/Image>
@@ -10,6 +11,8 @@
 
 #include <array>
 #include <cstdint>
+#include <mutex>
+#include <string>
 #include <vector>
 
 namespace texdefrag::osgb_detail {
@@ -37,6 +40,20 @@ class OsgbSource : public ModelSource {
   std::vector<osg::ref_ptr<osg::Image>> images;  ///< one per page
   std::string folder;                            ///< folder of the input file (as osgDB sets database paths)
 };
+
+/// Held around every osgDB read and write of the OSGB format (read_node, the writer), so that no
+/// other thread of this process is inside osgDB (holding one of its locks) when
+/// read_in_bounded_child forks.
+std::mutex& osgdb_mutex();
+
+/// osgb_read_limits(file_bytes), or the limits set by set_osgb_read_limits.
+OsgbReadLimits limits_for(uint64_t file_bytes);
+
+/// Reads `path` with osgDB in a child process under `limits` (texdefrag/io/osgb.h). Returns when
+/// the child read a node; otherwise throws FormatError naming the file: osgDB's own message, or
+/// the limit exceeded (memory, CPU time, wall time), or the signal that ended the child. Call it
+/// with osgdb_mutex() held.
+void read_in_bounded_child(const std::string& path, const OsgbReadLimits& limits);
 
 /// Index `i` of a primitive set's index list (DrawArrays: first + i).
 inline uint32_t index_at(const osg::PrimitiveSet& ps, uint32_t i) { return ps.index(i); }

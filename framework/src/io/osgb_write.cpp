@@ -330,11 +330,6 @@ osg::ref_ptr<osg::Image> osg_image(const Image& img, const std::string& file_nam
   return im;
 }
 
-std::mutex& osgdb_write_mutex() {
-  static std::mutex m;
-  return m;
-}
-
 }  // namespace
 
 WriteResult OsgbFormat::write(const LoadedModel& in, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
@@ -374,7 +369,7 @@ WriteResult OsgbFormat::write(const LoadedModel& in, const TexturedMesh& out_mes
     // note: an embedded image file is read back from disk by osgDB's OutputStream through
     // findDataFile (the registry's data path list), so the scratch folder goes on that list for
     // the duration of the write.
-    std::lock_guard<std::mutex> lock(osgdb_write_mutex());
+    std::lock_guard<std::mutex> lock(osgb_detail::osgdb_mutex());  // osgb_source.h
     osgDB::FilePathList& paths = osgDB::Registry::instance()->getDataFilePathList();
     paths.push_front(scratch.path);
     osg::ref_ptr<osgDB::Options> opt = new osgDB::Options("WriteImageHint=IncludeFile");

@@ -3,6 +3,11 @@
 // with osgDB::writeNodeFile, changing only texture coordinates (unit 0) and texture images.
 //
 // Reading (docs/io.md "OSGB"):
+// - bounded (docs/io.md "OSGB: bounded reading"): osgDB sizes strings and arrays from the file
+//   before reading them and crashes on some malformed files, so every file is first read by
+//   osgDB in a child process under the limits of osgb_read_limits() (address space, CPU time, wall
+//   time); only a file read there without error is read again in this process. A file that makes
+//   that child fail, crash or exceed a limit is a FormatError naming the file and what happened.
 // - every osg::Geometry reached from the root (each object once, even if shared) contributes its
 //   vertex array (Vec3Array or Vec3dArray, kept exactly: float -> double is exact) to
 //   mesh.positions, in traversal order; its faces follow in primitive-set order.
@@ -40,7 +45,27 @@
 
 #include "texdefrag/io/model_format.h"
 
+#include <cstdint>
+#include <optional>
+
 namespace texdefrag {
+
+/// What osgDB may use to read one OSGB file, in the child process that reads it first.
+struct OsgbReadLimits {
+  uint64_t memory_bytes = 0;  ///< address space the child may map beyond what it had at its start (RLIMIT_AS)
+  double cpu_seconds = 0;     ///< CPU time of the child (RLIMIT_CPU, whole seconds, rounded up)
+  double wall_seconds = 0;    ///< wall time after which the child is killed (a child blocked on a read)
+};
+
+/// Limits for a file of `file_bytes` bytes (documented constants, docs/io.md "OSGB: bounded
+/// reading"): memory 512 MiB + 64 x the file, CPU 2 s + 2 s per MiB (rounded up to whole
+/// seconds), wall 10 s + 4 x the CPU time. osgb_prod5's 31 files (up to 2.5 MB) take 0.06 CPU s
+/// per file on average in the child and at most 23 MiB resident there.
+OsgbReadLimits osgb_read_limits(uint64_t file_bytes);
+
+/// Replaces osgb_read_limits() for every later OSGB read of this process (tests; a caller whose
+/// files need more); std::nullopt restores the documented limits. Thread-safe.
+void set_osgb_read_limits(std::optional<OsgbReadLimits> limits);
 
 class OsgbFormat : public ModelFormat {
  public:

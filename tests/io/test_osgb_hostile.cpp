@@ -1,0 +1,183 @@
+// Hostile OSGB files (issue 11: "bad input gets a clear error naming the file; never a crash, hang
+// or silent fix"): each is a tiny valid file built here with the osg API, then one field changed.
+// On each, osgDB's own reader allocated gigabytes for a minute, crashed, or blocked for ever in
+// this process (what fuzz_osgb found); read through the bounded reader (osgb_bounded.cpp, docs/io.md
+// "OSGB: bounded reading") each is an error naming the file and the limit, within seconds, and the
+// process that read it stays within the memory limit.
+#include "texdefrag/io/osgb.h"
+#include "texdefrag/testing/fixtures.h"
+
+#include <osg/Geode>
+#include <osg/Geometry>
+#include <osg/ProxyNode>
+#include <osgDB/WriteFile>
+
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+
+#include <chrono>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <string>
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define TEXDEFRAG_TEST_ASAN 1
+#endif
+#endif
+#ifdef TEXDEFRAG_TEST_ASAN
+// An allocation refused by the address-space limit is a std::bad_alloc under ASan too (as in a
+// plain build), not the sanitizer's out-of-memory report.
+extern "C" const char* __asan_default_options() { return "allocator_may_return_null=1"; }
+#endif
+
+using namespace texdefrag;
+
+namespace {
+
+constexpr const char* kName = "hostile_marker_name";
+constexpr float kMarker[3] = {1234.5f, -678.25f, 91.125f};  // the first vertex
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const FormatError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+void put(const std::string& path, const std::string& bytes) { std::ofstream(path, std::ios::binary) << bytes; }
+
+/// A Geode named kName with one triangle strip of 5 vertices (the first is kMarker), untextured.
+osg::ref_ptr<osg::Geode> small_geode() {
+  osg::ref_ptr<osg::Geometry> g = new osg::Geometry;
+  osg::ref_ptr<osg::Vec3Array> v = new osg::Vec3Array;
+  v->push_back(osg::Vec3(kMarker[0], kMarker[1], kMarker[2]));
+  for (int i = 1; i < 5; ++i) v->push_back(osg::Vec3(static_cast<float>(i / 2), static_cast<float>(i % 2), 0.f));
+  g->setVertexArray(v.get());
+  g->addPrimitiveSet(new osg::DrawArrays(GL_TRIANGLE_STRIP, 0, 5));
+  osg::ref_ptr<osg::Geode> geode = new osg::Geode;
+  geode->setName(kName);
+  geode->addDrawable(g.get());
+  return geode;
+}
+
+std::string written(const osg::Node& node, const std::string& path) {
+  EXPECT_TRUE(osgDB::writeNodeFile(node, path));
+  return slurp(path);
+}
+
+/// Offset of the 32-bit little-endian `value` nearest before `at` (within 16 bytes).
+size_t int_before(const std::string& bytes, size_t at, uint32_t value) {
+  for (size_t p = at >= 4 ? at - 4 : 0; p + 16 >= at && p < bytes.size(); --p) {
+    uint32_t v = 0;
+    std::memcpy(&v, bytes.data() + p, 4);
+    if (v == value) return p;
+    if (p == 0) break;
+  }
+  ADD_FAILURE() << "no " << value << " before offset " << at;
+  return 0;
+}
+
+void set_int(std::string& bytes, size_t at, uint32_t value) { std::memcpy(&bytes[at], &value, 4); }
+
+/// The largest resident size of a waited-for child process so far (bytes).
+uint64_t children_max_rss() {
+  rusage u{};
+  getrusage(RUSAGE_CHILDREN, &u);
+  return static_cast<uint64_t>(u.ru_maxrss) * 1024;
+}
+
+/// Reads `path` (OsgbFormat::read), returns the error, and checks that it took under `max_s`
+/// seconds and that no reading process went past the memory limit.
+std::string hostile_read(const std::string& path, double max_s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string e = error_of([&] { OsgbFormat().read(path); });
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_LT(s, max_s) << path;
+  EXPECT_LT(children_max_rss(), osgb_read_limits(0).memory_bytes) << path;
+  EXPECT_EQ(e.rfind(path + ": ", 0), 0u) << e;
+  return e;
+}
+
+}  // namespace
+
+TEST(OsgbHostile, TheUnchangedFileReads) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  written(*small_geode(), dir + "/ok.osgb");
+  const LoadedModel m = OsgbFormat().read(dir + "/ok.osgb");
+  ASSERT_EQ(m.mesh.positions.size(), 5u);
+  EXPECT_EQ(m.mesh.positions[0].x(), static_cast<double>(kMarker[0]));
+  EXPECT_EQ(m.mesh.faces.size(), 3u);
+}
+
+// A name whose length field says 2 GiB: osgDB allocated and zero-filled a 2 GiB string before
+// reading it (seconds and 2 GiB of memory per file; a file of such strings, minutes).
+TEST(OsgbHostile, AStringLengthOfGigabytesExceedsTheMemoryLimit) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  std::string bytes = written(*small_geode(), dir + "/ok.osgb");
+  const size_t name = bytes.find(kName);
+  ASSERT_NE(name, std::string::npos);
+  set_int(bytes, int_before(bytes, name, static_cast<uint32_t>(std::strlen(kName))), 0x7ffffff0u);
+  put(dir + "/long_name.osgb", bytes);
+  const std::string e = hostile_read(dir + "/long_name.osgb", 30);
+  EXPECT_NE(e.find("OpenSceneGraph's reader exceeded " + std::to_string((osgb_read_limits(bytes.size()).memory_bytes + (1u << 20) - 1) >> 20) +
+                   " MiB reading this file; the file is malformed"),
+            std::string::npos)
+      << e;
+}
+
+// A vertex array whose element count says 2^28 (3 GiB of Vec3): osgDB resized the array first.
+TEST(OsgbHostile, AnArraySizeOfGigabytesExceedsTheMemoryLimit) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  std::string bytes = written(*small_geode(), dir + "/ok.osgb");
+  const size_t data = bytes.find(std::string(reinterpret_cast<const char*>(kMarker), sizeof kMarker));
+  ASSERT_NE(data, std::string::npos);
+  set_int(bytes, int_before(bytes, data, 5), 0x10000000u);
+  put(dir + "/big_array.osgb", bytes);
+  const std::string e = hostile_read(dir + "/big_array.osgb", 30);
+  EXPECT_NE(e.find("OpenSceneGraph's reader exceeded"), std::string::npos) << e;
+}
+
+// A ProxyNode (loaded while the file is read) naming a FIFO no one writes: osgDB blocked for ever
+// opening it. The wall-time limit stops the reader (limits lowered so the test takes seconds).
+TEST(OsgbHostile, AReadThatBlocksIsStoppedByTheWallTimeLimit) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  ASSERT_EQ(::mkfifo((dir + "/blocked.osgb").c_str(), 0600), 0);
+  osg::ref_ptr<osg::ProxyNode> proxy = new osg::ProxyNode;
+  proxy->setLoadingExternalReferenceMode(osg::ProxyNode::LOAD_IMMEDIATELY);
+  proxy->setFileName(0, "blocked.osgb");
+  osg::ref_ptr<osg::Group> root = new osg::Group;
+  root->addChild(small_geode().get());
+  root->addChild(proxy.get());
+  written(*root, dir + "/proxy.osgb");
+  OsgbReadLimits l = osgb_read_limits(1000);
+  l.wall_seconds = 2;
+  set_osgb_read_limits(l);
+  const std::string e = hostile_read(dir + "/proxy.osgb", 20);
+  set_osgb_read_limits(std::nullopt);
+  EXPECT_NE(e.find("OpenSceneGraph's reader did not finish within 2 s (wall time) reading this file"), std::string::npos)
+      << e;
+}
+
+// A primitive set whose class name is not one osgDB knows: osgDB added a null primitive set to
+// the geometry and dereferenced it (SIGSEGV, found by fuzz_osgb). The crash ends only the child.
+TEST(OsgbHostile, ACrashOfTheReaderIsAnErrorNamingTheFile) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  std::string bytes = written(*small_geode(), dir + "/ok.osgb");
+  const size_t cls = bytes.find("osg::DrawArrays");
+  ASSERT_NE(cls, std::string::npos);
+  bytes[cls + std::strlen("osg::DrawArrays") - 1] = 'X';
+  put(dir + "/null_set.osgb", bytes);
+  const std::string e = hostile_read(dir + "/null_set.osgb", 30);
+  EXPECT_NE(e.find("OpenSceneGraph's reader crashed reading this file (signal 11"), std::string::npos) << e;
+}
