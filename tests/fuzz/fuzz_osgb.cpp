@@ -5,8 +5,10 @@
 // Properties checked on every input:
 // - OsgbFormat::read and osgb_children either succeed or throw FormatError whose message starts
 //   with the input's path; any other exception, a crash, a leak, a hang or undefined behaviour is
-//   a finding (ASan + UBSan build; OpenSceneGraph itself is not instrumented, so its own memory
-//   errors show only when they crash);
+//   a finding (ASan + UBSan build). osgDB reads each input first in the bounded child process
+//   (docs/io.md "OSGB: bounded reading"): its allocations of gigabytes, loops and crashes end that
+//   child and are errors naming the file; OpenSceneGraph is not instrumented, so its own memory
+//   errors show only when they crash;
 // - a model that reads has one page image and one page encoding per page, each image of the page's
 //   size, and its mesh passes fuzz::analyse (indices in range, topology, charts, distortion).
 // Seeds: make_fuzz_seeds (triangles, strips, fans with DrawArrayLengths, Vec3dArray, a PagedLOD

@@ -267,6 +267,25 @@ std::vector<std::string> osgb_children(const std::string& path) {
   return out;
 }
 
+std::vector<std::string> osgb_parents(const std::string& path) {
+  const fs::path file(path);
+  const std::string name = file.filename().string();
+  std::string needle(4, '\0');
+  for (size_t i = 0; i < 4; ++i) needle[i] = static_cast<char>((name.size() >> (8 * i)) & 0xFF);
+  needle += name;
+  std::vector<std::string> out;
+  std::error_code ec;
+  const fs::path folder = file.has_parent_path() ? file.parent_path() : fs::path(".");
+  for (auto it = fs::directory_iterator(folder, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+    if (lower_extension(it->path().string()) != "osgb" || it->path().filename() == file.filename()) continue;
+    std::ifstream in(it->path(), std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (bytes.find(needle) != std::string::npos) out.push_back(it->path().string());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 namespace {
 
 /// Appends the faces of one geometry's primitive sets to the mesh and the face records.

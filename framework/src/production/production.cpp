@@ -3,6 +3,7 @@
 
 #include "texdefrag/io/model_format.h"
 #include "texdefrag/io/obj.h"
+#include "texdefrag/io/osgb.h"
 
 #include <unistd.h>
 
@@ -161,6 +162,15 @@ void copy_into(const std::string& from, const std::string& to) {
   }
 }
 
+/// " (a child of P1, P2)" naming the OSGB files that name `input` as a PagedLOD/ProxyNode child
+/// (io/osgb.h osgb_parents), "" for other formats or a file no other names.
+std::string parents_of(const std::string& input) {
+  if (lower_extension(input) != "osgb") return "";
+  std::string out;
+  for (const std::string& p : osgb_parents(input)) out += (out.empty() ? " (a child of " : ", ") + p;
+  return out.empty() ? out : out + ")";
+}
+
 /// Runs one task: a tile with no textured face is copied, any other runs the pipeline. Returns
 /// its summary row (status "ok"); throws what the reader or the pipeline threw.
 json run_task(const PipelineConfig& config, const ProductionTask& t, const ProductionRunOptions& options, json& report) {
@@ -208,7 +218,7 @@ json run_production(const PipelineConfig& config, const Production& production, 
       ++failed;
       row = {{"relative", t.relative}, {"level", t.level}, {"status", "failed"}, {"copied", false},
              {"error", "production task " + std::to_string(i + 1) + "/" + std::to_string(production.tasks.size()) +
-                           " (" + t.relative + "): " + e.what()}};
+                           " (" + t.relative + "): " + e.what() + parents_of(t.input)}};
     }
     if (options.on_task) options.on_task(i, t, row, report);
     rows.push_back(row);

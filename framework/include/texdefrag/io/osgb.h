@@ -84,4 +84,11 @@ class OsgbFormat : public ModelFormat {
 /// Throws FormatError naming the file when it cannot be read.
 std::vector<std::string> osgb_children(const std::string& path);
 
+/// The .osgb files beside `path` (same folder, sorted) that name it as a child: their bytes hold
+/// path's file name as a 32-bit length followed by the name, as OSGB stores PagedLOD and ProxyNode
+/// file names. Reads bytes only (no osgDB, one file in memory at a time), so it works when `path`
+/// itself is malformed: a production names the parent of a tile that fails. Unreadable files are
+/// skipped.
+std::vector<std::string> osgb_parents(const std::string& path);
+
 }  // namespace texdefrag

@@ -61,8 +61,9 @@ struct ProductionRunOptions {
 /// copies the other files, and writes OUT/texdefrag_summary.json. A failing task (unreadable tile,
 /// missing PagedLOD child, a stage's error) leaves none of its files (its OutputSet is not
 /// committed) and is recorded in the summary with status "failed" and its error
-/// ("production task I/N (RELATIVE): <error naming the file>"); the other tasks go on. The
-/// summary's "failed" counts them. A ConfigError (the configuration itself) is rethrown at once.
+/// ("production task I/N (RELATIVE): <error naming the file>", then " (a child of P)" naming the
+/// .osgb files beside an OSGB tile that name it as a child, io/osgb.h osgb_parents); the other
+/// tasks go on. The summary's "failed" counts them. A ConfigError (the configuration itself) is rethrown at once.
 /// Returns the summary.
 json run_production(const PipelineConfig& config, const Production& production, const ProductionRunOptions& options);
 
