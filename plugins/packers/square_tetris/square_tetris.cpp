@@ -285,20 +285,17 @@ RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s) {
 /// free run, and per block of rows the longest free run (to skip rows that cannot hold a mask's
 /// widest row). Rows above the allocated ones are empty. Filling a run splits at most one interval.
 /// Free runs shorter than `min_run` (the shortest run of any mask searched on this page) are not
-/// kept: no mask run can lie in one, so every search gives the same answer without them. Each row
-/// keeps its free runs at kLevels lengths: level l holds the runs of at least min_run * 4^l cells,
-/// and a mask run of len cells is looked up in the highest level whose runs can be that short, so
-/// the search steps over no run shorter than a quarter of len (same answer: shorter runs were
-/// skipped one by one before).
+/// kept: no mask run can lie in one, so every search gives the same answer without them.
 /// note: with gutter g every dilated run is at least g + 1 cells long; on t016_L19 (best.json's
 /// merged atlas, one page width) a third of the 55k free runs left were shorter than 5 cells, and
-/// the 6.2M run checks of its searches stepped over 62M free runs, most of them too short.
+/// the 6.2M run checks of its searches stepped over 62M free runs. Also tried: the runs kept again
+/// at lengths 4x and 16x the shortest, so long mask runs step over fewer short free runs (fewer
+/// instructions, but 8-21% more CPU on bench_packers' 8192-wide pages: three copies of each row).
 class RasterPage {
  public:
-  RasterPage(int width, int height, int min_run) : width_(width), height_(height) {
-    const int base = std::clamp(min_run, 1, 1 << 20);  // INT_MAX when no mask is searched
-    for (int l = 0; l < kLevels; ++l) level_min_[l] = base << (2 * l);
-  }
+  // note: min_run is INT_MAX when no mask is searched (no tail): clamped, nothing is dropped then.
+  RasterPage(int width, int height, int min_run)
+      : width_(width), height_(height), min_run_(std::clamp(min_run, 1, width + 1)) {}
   int used() const { return used_; }
 
   void fill_rect(int x, int y, int w, int h) {
@@ -317,7 +314,7 @@ class RasterPage {
   bool first_fit(const RunMask& m, int max_top, int& bx, int& by) {
     if (m.w > width_ || m.wide_len == 0) return false;
     max_top = std::min(max_top, height_);
-    const int rows = static_cast<int>(maxrun_.size());
+    const int rows = static_cast<int>(free_.size());
     int start = 0;
     if (m.shape >= 0) {
       if (resume_.size() <= static_cast<size_t>(m.shape)) resume_.resize(static_cast<size_t>(m.shape) + 1, 0);
@@ -393,8 +390,8 @@ class RasterPage {
     X.assign(1, Run{0, width_ - m.w + 1});
     for (const auto& [r, a, len] : m.checks) {
       const size_t yr = static_cast<size_t>(y + r);
-      if (yr >= maxrun_.size()) continue;  // an empty row
-      const std::vector<Run>& row = free_[level(len)][yr];
+      if (yr >= free_.size()) continue;  // an empty row
+      const std::vector<Run>& row = free_[yr];
       next.clear();
       // the free runs that can hold [x + a, x + a + len) for some x in X
       auto it = row.begin() + static_cast<long>(first_ending_after(row, X.front().a + a));
@@ -420,13 +417,12 @@ class RasterPage {
   int lowest_rect(int w, int h, int from, int last) const {
     std::vector<Run>& X = cand_;
     std::vector<Run>& next = scratch_;
-    const int rows = static_cast<int>(maxrun_.size());
-    const int lv = level(w);
+    const int rows = static_cast<int>(free_.size());
     for (int y = std::max(0, from); y <= last;) {
       X.assign(1, Run{0, width_ - w + 1});
       int fail = -1;
       for (int r = std::min(h, rows - y) - 1; r >= 0; --r) {
-        const std::vector<Run>& row = free_[lv][static_cast<size_t>(y + r)];
+        const std::vector<Run>& row = free_[static_cast<size_t>(y + r)];
         if (maxrun_[static_cast<size_t>(y + r)] < w) { fail = r; break; }
         next.clear();
         auto it = row.begin() + static_cast<long>(first_ending_after(row, X.front().a));
@@ -450,7 +446,7 @@ class RasterPage {
   }
   /// First row >= from whose longest free run is at least k (rows above the used ones are free).
   int next_row(int from, int k) const {
-    const int rows = static_cast<int>(maxrun_.size());
+    const int rows = static_cast<int>(free_.size());
     int r = from;
     while (r < rows) {
       if (r % kBlock == 0 && blockmax_[static_cast<size_t>(r / kBlock)] < k) {
@@ -462,44 +458,34 @@ class RasterPage {
     }
     return rows;
   }
-  /// The level whose runs a mask run of len cells is looked up in.
-  int level(int len) const {
-    int l = 0;
-    while (l + 1 < kLevels && level_min_[l + 1] <= len) ++l;
-    return l;
-  }
   /// Marks cells [a, b) of row r occupied.
   void occupy(int r, int a, int b) {
-    while (static_cast<int>(maxrun_.size()) <= r) {
-      for (auto& lv : free_) lv.push_back({Run{0, width_}});
+    while (static_cast<int>(free_.size()) <= r) {
+      free_.push_back({Run{0, width_}});
       maxrun_.push_back(width_);
-      if (blockmax_.size() * kBlock < maxrun_.size()) blockmax_.push_back(width_);
+      if (blockmax_.size() * kBlock < free_.size()) blockmax_.push_back(width_);
     }
-    for (int l = 0; l < kLevels; ++l) {
-      std::vector<Run>& row = free_[l][static_cast<size_t>(r)];
-      auto it = row.begin() + static_cast<long>(first_ending_after(row, a));
-      while (it != row.end() && it->a < b) {
-        const Run f = *it;
-        it = row.erase(it);
-        if (f.b - b >= level_min_[l]) it = row.insert(it, Run{b, f.b});
-        if (a - f.a >= level_min_[l]) it = std::next(row.insert(it, Run{f.a, a}));
-        if (f.b > b) break;
-      }
+    std::vector<Run>& row = free_[static_cast<size_t>(r)];
+    auto it = std::upper_bound(row.begin(), row.end(), a, [](int v, const Run& f) { return v < f.b; });
+    while (it != row.end() && it->a < b) {
+      const Run f = *it;
+      it = row.erase(it);
+      if (f.b - b >= min_run_) it = row.insert(it, Run{b, f.b});
+      if (a - f.a >= min_run_) it = std::next(row.insert(it, Run{f.a, a}));
+      if (f.b > b) break;
     }
-    int best = 0;  // the longest run is in the highest level holding any run
-    for (int l = kLevels - 1; l >= 0 && best == 0; --l)
-      for (const Run& f : free_[l][static_cast<size_t>(r)]) best = std::max(best, f.b - f.a);
+    int best = 0;
+    for (const Run& f : row) best = std::max(best, f.b - f.a);
     maxrun_[static_cast<size_t>(r)] = best;
     const size_t blk = static_cast<size_t>(r / kBlock);
-    const int r0 = static_cast<int>(blk) * kBlock, r1 = std::min(static_cast<int>(maxrun_.size()), r0 + kBlock);
+    const int r0 = static_cast<int>(blk) * kBlock, r1 = std::min(static_cast<int>(free_.size()), r0 + kBlock);
     int bm = 0;
     for (int i = r0; i < r1; ++i) bm = std::max(bm, maxrun_[static_cast<size_t>(i)]);
     blockmax_[blk] = bm;
   }
-  static constexpr int kLevels = 3;
   int width_, height_, used_ = 0;
-  int level_min_[kLevels];                       ///< shortest run kept at each level
-  std::vector<std::vector<Run>> free_[kLevels];  ///< per level, per row: free runs, left to right
+  int min_run_;                         ///< free runs shorter than this are dropped
+  std::vector<std::vector<Run>> free_;  ///< per row: free runs of at least min_run_ cells, left to right
   std::vector<int> maxrun_;             ///< per row: longest free run
   std::vector<int> blockmax_;           ///< per block of kBlock rows: longest free run
   mutable std::vector<Run> cand_, scratch_;  ///< leftmost_at's offset sets
