@@ -607,6 +607,7 @@ const char* Engine::check_boundary(Move& mv) {
     Segment sg;
     sg.w0 = wedge(e / 3, e % 3);
     sg.w1 = wedge(e / 3, (e % 3 + 1) % 3);
+    sg.edge = e;
     sg.a = uv(sg.w0);
     sg.b = uv(sg.w1);
     return sg;
@@ -639,7 +640,17 @@ const char* Engine::check_boundary(Move& mv) {
       Bg.segs.query(qr, visit);
     }
   }
-  return any_crossing(moved, all) ? "overlap" : nullptr;
+  // Only a crossing the move added counts (as for triangles in check_triangles): two boundary
+  // segments of faces that were in one chart and crossed before the move are an input overlap.
+  Before before;
+  auto is_new = [&](const Segment& x, const Segment& y) {
+    if (x.edge < 0 || y.edge < 0 || !same_chart_before(mv, x.edge / 3, y.edge / 3)) return true;
+    load_before(L, before);
+    const Tri2 tx = tri2_before(before, x.edge / 3), ty = tri2_before(before, y.edge / 3);
+    const size_t kx = static_cast<size_t>(x.edge % 3), ky = static_cast<size_t>(y.edge % 3);
+    return !segments_cross(tx.p[kx], tx.p[(kx + 1) % 3], ty.p[ky], ty.p[(ky + 1) % 3]);
+  };
+  return any_crossing(moved, all, is_new) ? "overlap" : nullptr;
 }
 
 const char* Engine::check_triangles(const Move& mv) {

@@ -81,7 +81,8 @@ bool skip_pair(const Segment& s, const Segment& t) {
 }
 }  // namespace
 
-bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>& all) {
+bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>& all,
+                  const std::function<bool(const Segment&, const Segment&)>& is_new) {
   if (moved.empty()) return false;
   Vector2d lo = moved[0].a, hi = moved[0].a;
   double len = 0;
@@ -122,7 +123,7 @@ bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>&
           const int i = *it;
           const Segment& m = moved[static_cast<size_t>(i)];
           if (skip_pair(s, m)) continue;
-          if (segments_cross(s.a, s.b, m.a, m.b)) return true;
+          if (segments_cross(s.a, s.b, m.a, m.b) && (!is_new || is_new(s, m))) return true;
         }
     return false;
   };

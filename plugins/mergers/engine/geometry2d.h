@@ -43,6 +43,7 @@ bool segments_cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Ei
 /// A segment between two wedges (its endpoints' ids let callers skip adjacent segments).
 struct Segment {
   int w0 = -1, w1 = -1;
+  int edge = -1;  ///< callers' tag (the engine: 3 x face + local edge; -1: none)
   Eigen::Vector2d a, b;
 };
 
@@ -51,7 +52,9 @@ struct Segment {
 /// segments' bounding box: O((|all| + |moved|) * segments per cell).
 /// @param moved  segments whose positions changed (tested against everything)
 /// @param all    the other segments of the same chart (may include the moved ones)
-bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>& all);
+/// @param is_new optional: a crossing pair counts only when is_new(a, b) is true
+bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>& all,
+                  const std::function<bool(const Segment&, const Segment&)>& is_new = {});
 
 /// A triangle with the wedge ids of its corners (shared ids mark adjacency).
 struct Tri2 {
