@@ -14,9 +14,10 @@ model=$(ls "$work"/in/*.obj)
 status=0
 for variant in small default shares; do
   sets=()
-  # note: 640, not 512: since merges may keep an input chart's own overlaps (docs/mergers.md step 7)
-  # this building has a 361 x 524-texel chart, which no 512 page holds; 640 still gives 2 pages.
-  [ "$variant" = small ] && sets=(--set packer.max_page_size=640)
+  # note: the page must hold the largest merged chart (the packer refuses one that does not fit) and
+  # be small enough for 2 pages: both depend on the merger (a 361 x 524 chart at one point of
+  # 2026-12-02; 512 gives 2 pages again with the merger as of the boundary-overlap change).
+  [ "$variant" = small ] && sets=(--set packer.max_page_size=512)
   [ "$variant" = shares ] && sets=(--set merger.global_bound=0.004)
   for t in 1 4; do
     "$exe" run -q -c "$src/configs/best.json" "$model" -o "$work/$variant$t" --threads "$t" "${sets[@]}"

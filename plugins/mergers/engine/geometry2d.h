@@ -43,8 +43,8 @@ bool segments_cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Ei
 /// A segment between two wedges (its endpoints' ids let callers skip adjacent segments).
 struct Segment {
   int w0 = -1, w1 = -1;
-  int edge = -1;  ///< callers' tag (the engine: 3 x face + local edge; -1: none)
   Eigen::Vector2d a, b;
+  int edge = -1;  ///< callers' tag (the engine: 3 x face + local edge; -1: none)
 };
 
 /// Whether any segment of `moved` properly crosses any segment of `all` (or another of `moved`),
@@ -59,8 +59,8 @@ bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>&
 /// A triangle with the wedge ids of its corners (shared ids mark adjacency).
 struct Tri2 {
   std::array<int, 3> w{-1, -1, -1};
-  int face = -1;  ///< the mesh face it is (callers' tag; -1: none)
   std::array<Eigen::Vector2d, 3> p;
+  int face = -1;  ///< the mesh face it is (callers' tag; -1: none)
 };
 
 /// True when the interiors of a and b intersect: two edges cross properly, a corner of one that is
