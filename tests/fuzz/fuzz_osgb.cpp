@@ -32,6 +32,13 @@ const char* const kTarget = "fuzz_osgb";
 const std::filesystem::path& folder() {
   static const std::filesystem::path dir = [] {
     osg::setNotifyLevel(osg::FATAL);  // the plugin's warnings on every malformed input
+    // note: inputs are at most a few KB and the seeds need ~20 MiB: tighter limits than a real
+    // file's (512 MiB, 3 s) keep the executions on hostile inputs short; the limit paths are the same.
+    OsgbReadLimits limits;
+    limits.memory_bytes = 128ull << 20;
+    limits.cpu_seconds = 1;
+    limits.wall_seconds = 15;
+    set_osgb_read_limits(limits);
     const std::filesystem::path d = fuzz::work_dir(kTarget);
     std::filesystem::copy_file(std::string(TEXDEFRAG_FUZZ_SEEDS) + "/osgb/triangles.osgb", d / "triangles.osgb",
                                std::filesystem::copy_options::overwrite_existing);
