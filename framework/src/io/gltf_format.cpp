@@ -57,12 +57,12 @@ LoadedModel loaded_from(GltfModel g, const std::string& root) {
 }  // namespace
 
 std::vector<uint8_t> encode_image(const Image& image, const PageWriteOptions& options) {
-  if (options.format == ImageFormat::Jpeg) return encode_jpeg(image, options.jpeg_quality, options.jpeg_subsampling);
+  if (options.format == ImageFormat::Jpeg) return encode_jpeg(image, options.jpeg_quality, options.jpeg_subsampling, "page", options.jpeg_coding);
   static std::atomic<unsigned> counter{0};
   const fs::path tmp = fs::temp_directory_path() / ("texdefrag-page-" + std::to_string(::getpid()) + "-" +
                                                     std::to_string(counter++) +
                                                     (options.format == ImageFormat::Jpeg ? ".jpg" : ".png"));
-  write_image(tmp.string(), image, options.format, options.jpeg_quality, options.jpeg_subsampling);
+  write_image(tmp.string(), image, options.format, options.jpeg_quality, options.jpeg_subsampling, options.jpeg_coding);
   std::ifstream in(tmp, std::ios::binary);
   std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   in.close();

@@ -120,8 +120,10 @@ const char* jpeg_subsampling_name(JpegSubsampling s) {
   return "4:4:4";
 }
 
+const char* jpeg_tables_name(JpegTables t) { return t == JpegTables::Flat ? "flat" : "standard"; }
+
 void write_image(const std::string& path, const Image& image, ImageFormat format, int jpeg_quality,
-                 JpegSubsampling subsampling) {
+                 JpegSubsampling subsampling, JpegCoding coding) {
   if (image.width <= 0 || image.height <= 0)
     throw ImageError(path + ": cannot write an empty image (" + std::to_string(image.width) + "x" + std::to_string(image.height) + ")");
   if (image.channels < 1 || image.channels > 4)
@@ -152,7 +154,7 @@ void write_image(const std::string& path, const Image& image, ImageFormat format
     if (format == ImageFormat::Png)
       image_codec::write_png(f.get(), image, path);
     else
-      image_codec::write_jpeg(f.get(), image, jpeg_quality, subsampling, path);
+      image_codec::write_jpeg(f.get(), image, jpeg_quality, subsampling, path, coding);
   } catch (...) {
     f.reset();
     fs::remove(tmp, ec);

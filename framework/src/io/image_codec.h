@@ -53,11 +53,17 @@ Image read_jpeg(Source& src, const std::string& name, bool header_only);
 /// Encodes a PNG (zlib level 6, libpng's default filters) of 1-4 channels into `out`.
 void write_png(std::FILE* out, const Image& image, const std::string& name);
 
-/// Encodes a baseline JPEG the way OpenImageIO 2.4 wrote it (byte for byte): libjpeg defaults,
-/// jpeg_set_quality(quality, force_baseline), the luma sampling factors of `subsampling` for
-/// colour, JFIF APP0 then an empty EXIF APP1. 1-channel images are grey; of 2 or 4 channels the
-/// last (alpha) is left out.
+/// Encodes a JPEG. With the default `coding` it is the baseline JPEG OpenImageIO 2.4 wrote (byte for
+/// byte): libjpeg defaults, jpeg_set_quality(quality, force_baseline), the luma sampling factors of
+/// `subsampling` for colour, JFIF APP0 then an empty EXIF APP1. coding.tables Flat: flat tables
+/// (image.h JpegTables) instead of jpeg_set_quality's; coding.progressive: progressive scans with
+/// optimised Huffman tables. 1-channel images are grey; of 2 or 4 channels the last (alpha) is left out.
 void write_jpeg(std::FILE* out, const Image& image, int quality, JpegSubsampling subsampling,
-                const std::string& name);
+                const std::string& name, JpegCoding coding = {});
+
+/// The flat quantisation table of `quality` (image.h JpegTables::Flat), in natural (row-major)
+/// order: steps of 16 x jpeg_quality_scaling(quality) / 100 (at least 1, at most 255) spread as floor
+/// and ceiling over the zig-zag order so that their mean is that real number.
+void flat_jpeg_table(int quality, unsigned int table[64]);
 
 }  // namespace texdefrag::image_codec

@@ -14,6 +14,8 @@
 #include <jerror.h>
 #include <jpeglib.h>
 
+#include <algorithm>
+#include <cmath>
 #include <csetjmp>
 #include <cstring>
 #include <new>
@@ -121,9 +123,14 @@ struct JpegWrite {
 /// little-endian TIFF header whose first IFD has no entries.
 const uint8_t kEmptyExif[20] = {'E', 'x', 'i', 'f', 0, 0, 'I', 'I', 42, 0, 8, 0, 0, 0, 0, 0, 0, 0, 0, 0};
 
+/// libjpeg's zig-zag order: kZigzag[k] is the natural (row-major) index of the k-th coefficient.
+const int kZigzag[64] = {0,  1,  8,  16, 9,  2,  3,  10, 17, 24, 32, 25, 18, 11, 4,  5,  12, 19, 26, 33, 40, 48,
+                         41, 34, 27, 20, 13, 6,  7,  14, 21, 28, 35, 42, 49, 56, 57, 50, 43, 36, 29, 22, 15, 23,
+                         30, 37, 44, 51, 58, 59, 52, 45, 38, 31, 39, 46, 53, 60, 61, 54, 47, 55, 62, 63};
+
 /// Guarded: encodes the whole image; row is scratch for one row of 1 or 3 channels.
 bool encode(JpegWrite& w, std::FILE* out, const Image& image, int quality, JpegSubsampling subsampling,
-            uint8_t* row) {
+            JpegCoding coding, uint8_t* row) {
   install(w.err);
   w.cinfo.err = &w.err.pub;
   if (setjmp(w.err.jump)) return false;
@@ -135,7 +142,15 @@ bool encode(JpegWrite& w, std::FILE* out, const Image& image, int quality, JpegS
   w.cinfo.input_components = components;
   w.cinfo.in_color_space = components == 3 ? JCS_RGB : JCS_GRAYSCALE;
   jpeg_set_defaults(&w.cinfo);
-  jpeg_set_quality(&w.cinfo, quality, TRUE);
+  if (coding.tables == JpegTables::Flat) {
+    unsigned int table[64];
+    flat_jpeg_table(quality, table);
+    jpeg_add_quant_table(&w.cinfo, 0, table, 100, TRUE);  // scale 100%: the steps as given
+    jpeg_add_quant_table(&w.cinfo, 1, table, 100, TRUE);
+  } else {
+    jpeg_set_quality(&w.cinfo, quality, TRUE);
+  }
+  if (coding.progressive) jpeg_simple_progression(&w.cinfo);  // implies optimised Huffman tables
   if (components == 3) {
     w.cinfo.comp_info[0].h_samp_factor = subsampling == JpegSubsampling::S444 ? 1 : 2;
     w.cinfo.comp_info[0].v_samp_factor = subsampling == JpegSubsampling::S420 ? 2 : 1;
@@ -190,10 +205,18 @@ Image read_jpeg(Source& src, const std::string& name, bool header_only) {
   return img;
 }
 
-void write_jpeg(std::FILE* out, const Image& image, int quality, JpegSubsampling subsampling, const std::string& name) {
+void flat_jpeg_table(int quality, unsigned int table[64]) {
+  const double step = std::clamp(16.0 * jpeg_quality_scaling(quality) / 100.0, 1.0, 255.0);
+  const unsigned int low = static_cast<unsigned int>(step);
+  const int ceilings = static_cast<int>(std::lround((step - low) * 64.0));  // coefficients one step coarser
+  for (int k = 0; k < 64; ++k) table[kZigzag[k]] = low + (k >= 64 - ceilings ? 1u : 0u);
+}
+
+void write_jpeg(std::FILE* out, const Image& image, int quality, JpegSubsampling subsampling, const std::string& name,
+                JpegCoding coding) {
   JpegWrite w;
   std::vector<uint8_t> row(static_cast<size_t>(image.width) * 3);
-  if (!encode(w, out, image, quality, subsampling, row.data()))
+  if (!encode(w, out, image, quality, subsampling, coding, row.data()))
     throw ImageError(name + ": write failed: JPEG: " + w.err.error);
 }
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <limits>
@@ -143,6 +144,23 @@ std::optional<JpegSubsampling> read_jpeg_subsampling(const uint8_t* data, size_t
 std::optional<JpegSubsampling> read_jpeg_subsampling_of_file(const std::string& path) {
   const std::vector<uint8_t> head = file_head(path);
   return read_jpeg_subsampling(head.data(), head.size());
+}
+
+int flat_quality_for_standard(int standard_quality) {
+  if (standard_quality < 1 || standard_quality > 100) return std::clamp(standard_quality, 1, 100);
+  // Squared steps of the standard tables: luminance once (Y), chrominance twice (Cb, Cr).
+  double sum = 0;
+  for (int k = 0; k < 64; ++k) {
+    const double y = scaled(kStdLuminance[static_cast<size_t>(k)], standard_quality);
+    const double c = scaled(kStdChrominance[static_cast<size_t>(k)], standard_quality);
+    sum += y * y + 2 * c * c;
+  }
+  const double rms = std::sqrt(sum / (3 * 64));
+  for (int q = 1; q <= 100; ++q) {
+    const int scale = q < 50 ? 5000 / q : 200 - q * 2;
+    if (std::clamp(16.0 * scale / 100.0, 1.0, 255.0) <= rms) return q;
+  }
+  return 100;
 }
 
 }  // namespace texdefrag

@@ -12,7 +12,7 @@
 namespace texdefrag {
 
 std::vector<uint8_t> encode_jpeg(const Image& image, int quality, JpegSubsampling subsampling,
-                                 const std::string& name) {
+                                 const std::string& name, JpegCoding coding) {
   if (image.width <= 0 || image.height <= 0 || image.channels < 1 || image.channels > 4 ||
       image.pixels.size() != static_cast<size_t>(image.width) * static_cast<size_t>(image.height) *
                                  static_cast<size_t>(image.channels))
@@ -25,7 +25,7 @@ std::vector<uint8_t> encode_jpeg(const Image& image, int quality, JpegSubsamplin
   std::FILE* f = open_memstream(&buf, &size);
   if (!f) throw ImageError(name + ": cannot encode: no memory stream");
   try {
-    image_codec::write_jpeg(f, image, quality, subsampling, name);
+    image_codec::write_jpeg(f, image, quality, subsampling, name, coding);
   } catch (...) {
     std::fclose(f);
     std::free(buf);
@@ -42,12 +42,12 @@ namespace {
 /// Total encoded bytes of every page at each quality of `qualities`, encoded in parallel over
 /// (page, quality); combined in index order.
 std::vector<size_t> total_bytes(const std::vector<const Image*>& pages, const std::vector<int>& qualities,
-                                JpegSubsampling subsampling) {
+                                JpegSubsampling subsampling, JpegCoding coding) {
   const size_t n = pages.size();
   std::vector<size_t> bytes(n * qualities.size(), 0);
   parallel_for(bytes.size(), [&](size_t i) {
     const size_t q = i / n, p = i % n;
-    bytes[i] = encode_jpeg(*pages[p], qualities[q], subsampling, "page " + std::to_string(p)).size();
+    bytes[i] = encode_jpeg(*pages[p], qualities[q], subsampling, "page " + std::to_string(p), coding).size();
   });
   std::vector<size_t> totals(qualities.size(), 0);
   for (size_t i = 0; i < bytes.size(); ++i) totals[i / n] += bytes[i];
@@ -57,14 +57,14 @@ std::vector<size_t> total_bytes(const std::vector<const Image*>& pages, const st
 }  // namespace
 
 JpegQualityFit fit_jpeg_quality(const std::vector<const Image*>& pages, int min_quality, int max_quality,
-                                JpegSubsampling subsampling, size_t budget) {
+                                JpegSubsampling subsampling, size_t budget, JpegCoding coding) {
   if (min_quality < 1 || max_quality > 100 || min_quality > max_quality)
     throw ImageError("fit_jpeg_quality: qualities " + std::to_string(min_quality) + ".." + std::to_string(max_quality) +
                      " are not 1 <= min <= max <= 100");
   JpegQualityFit fit;
   std::vector<int> ends = {max_quality};
   if (min_quality < max_quality) ends.push_back(min_quality);
-  const std::vector<size_t> end_bytes = total_bytes(pages, ends, subsampling);
+  const std::vector<size_t> end_bytes = total_bytes(pages, ends, subsampling, coding);
   fit.probes = static_cast<int>(ends.size());
   if (end_bytes[0] <= budget) return {max_quality, end_bytes[0], fit.probes, true};
   if (ends.size() == 1 || end_bytes[1] > budget) return {min_quality, end_bytes.back(), fit.probes, false};
@@ -78,7 +78,7 @@ JpegQualityFit fit_jpeg_quality(const std::vector<const Image*>& pages, int min_
       const int q = lo + (hi - lo) * k / gaps;
       if (q > lo && q < hi && (mids.empty() || q > mids.back())) mids.push_back(q);
     }
-    const std::vector<size_t> b = total_bytes(pages, mids, subsampling);
+    const std::vector<size_t> b = total_bytes(pages, mids, subsampling, coding);
     fit.probes += static_cast<int>(mids.size());
     int new_lo = lo, new_hi = hi;
     size_t new_lo_bytes = lo_bytes;

@@ -97,7 +97,8 @@ std::optional<JpegSubsampling> parse_subsampling(const std::string& name) {
 }  // namespace
 
 PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& image_format, int jpeg_quality,
-                                     bool match_input_quality, const std::string& jpeg_subsampling) {
+                                     bool match_input_quality, const std::string& jpeg_subsampling,
+                                     JpegCoding coding) {
   if (image_format != "input" && image_format != "png" && image_format != "jpeg")
     throw FormatError("output.image_format: '" + image_format + "' is not one of input, png, jpeg");
   const std::optional<JpegSubsampling> forced = parse_subsampling(jpeg_subsampling);
@@ -122,7 +123,10 @@ PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& i
   PageWriteOptions o;
   o.format = image_format == "jpeg" || (image_format == "input" && all_jpeg) ? ImageFormat::Jpeg : ImageFormat::Png;
   o.jpeg_quality_from_input = match_input_quality && quality.has_value();
-  o.jpeg_quality = o.jpeg_quality_from_input ? *quality : jpeg_quality;
+  o.jpeg_standard_quality = o.jpeg_quality_from_input ? *quality : jpeg_quality;
+  o.jpeg_coding = coding;
+  o.jpeg_quality = coding.tables == JpegTables::Flat ? flat_quality_for_standard(o.jpeg_standard_quality)
+                                                     : o.jpeg_standard_quality;
   o.jpeg_subsampling = forced ? *forced : finest.value_or(JpegSubsampling::S444);
   return o;
 }
@@ -131,6 +135,7 @@ JpegQualityFit fit_page_quality(const LoadedModel& in, const std::vector<Image>&
                                 int max_quality) {
   JpegQualityFit none;
   none.quality = po.jpeg_quality;
+  if (po.jpeg_coding.tables == JpegTables::Flat) max_quality = flat_quality_for_standard(max_quality);
   if (po.format != ImageFormat::Jpeg || !po.jpeg_quality_from_input || max_quality <= po.jpeg_quality || pages.empty())
     return none;
   std::vector<uint8_t> used(in.mesh.pages.size(), 0);
@@ -143,7 +148,8 @@ JpegQualityFit fit_page_quality(const LoadedModel& in, const std::vector<Image>&
   if (budget == 0) return none;
   std::vector<const Image*> images;
   for (const Image& image : pages) images.push_back(&image);
-  const JpegQualityFit fit = fit_jpeg_quality(images, po.jpeg_quality, max_quality, po.jpeg_subsampling, budget);
+  const JpegQualityFit fit =
+      fit_jpeg_quality(images, po.jpeg_quality, max_quality, po.jpeg_subsampling, budget, po.jpeg_coding);
   po.jpeg_quality = fit.quality;
   return fit;
 }

@@ -74,6 +74,10 @@ const StageInfo& writer_stage_info() {
        opt_int("jpeg_max_quality", 100, "Highest quality jpeg_quality_fit may raise JPEG pages to").range(1, 100),
        opt_enum("jpeg_subsampling", "4:4:4", {"4:4:4", "4:2:2", "4:2:0", "input"},
                 "Chroma subsampling of JPEG pages; 'input': the finest of the input JPEG pages' (4:4:4 when unknown)"),
+       opt_enum("jpeg_tables", "flat", {"flat", "standard"},
+                "Quantisation tables of JPEG pages: 'flat' (one step for every coefficient: the most fidelity per "
+                "byte in PSNR) or 'standard' (libjpeg's Annex K tables); qualities keep libjpeg's scale (docs/io.md)"),
+       opt_bool("jpeg_progressive", true, "JPEG pages as progressive scans with optimised Huffman tables (smaller, same pixels)"),
        opt_string("name", "", "Output file stem; empty keeps the input's stem"),
        opt_bool("write_report", true, "Write <stem>.report.json beside the output"),
        opt_enum("draco", "none", {"none", "lossless", "quantized"},

@@ -503,9 +503,11 @@ void write_step(json& report, const PipelineConfig& config, const RunOptions& op
     PageWriteOptions po = choose_page_options(model, config.output.get_string("image_format"),
                                               static_cast<int>(config.output.get_int("jpeg_quality")),
                                               config.output.get_bool("match_input_quality"),
-                                              config.output.get_string("jpeg_subsampling"));
+                                              config.output.get_string("jpeg_subsampling"),
+                                              {config.output.get_string("jpeg_tables") == "flat" ? JpegTables::Flat
+                                                                                                 : JpegTables::Standard,
+                                               config.output.get_bool("jpeg_progressive")});
     po.output_options = config.output.values();
-    const int matched_quality = po.jpeg_quality;
     JpegQualityFit fit;
     if (config.output.get_string("jpeg_quality_fit") == "input_bytes")
       fit = fit_page_quality(model, out_pages, po, static_cast<int>(config.output.get_int("jpeg_max_quality")));
@@ -518,7 +520,9 @@ void write_step(json& report, const PipelineConfig& config, const RunOptions& op
     if (po.format == ImageFormat::Jpeg) {
       node["jpeg_quality"] = po.jpeg_quality;
       node["jpeg_subsampling"] = jpeg_subsampling_name(po.jpeg_subsampling);
-      if (po.jpeg_quality_from_input) node["jpeg_quality_estimated"] = matched_quality;
+      node["jpeg_tables"] = jpeg_tables_name(po.jpeg_coding.tables);
+      node["jpeg_progressive"] = po.jpeg_coding.progressive;
+      if (po.jpeg_quality_from_input) node["jpeg_quality_estimated"] = po.jpeg_standard_quality;
       if (fit.probes > 0)
         node["jpeg_quality_fit"] = {{"probes", fit.probes}, {"bytes", fit.bytes}, {"within_input_bytes", fit.within_budget}};
     }

@@ -51,16 +51,40 @@ enum class JpegSubsampling { S444, S422, S420 };
 /// "4:4:4", "4:2:2", "4:2:0".
 const char* jpeg_subsampling_name(JpegSubsampling s);
 
+/// JPEG quantisation tables (docs/io.md "Page format").
+/// Standard: libjpeg's (ITU T.81 Annex K) luminance and chrominance tables scaled by the quality
+///   (jpeg_set_quality): coarse steps at high frequencies and for colour, tuned for the eye.
+/// Flat: one step for every coefficient of every component, the step of the standard tables' base
+///   value 16 scaled by the same quality (16 x jpeg_quality_scaling(q) / 100, at least 1), as a real
+///   number: the lowest-frequency coefficients (zig-zag order) take its floor and the others its
+///   ceiling, so the mean step is the real one and one quality more is a small step in bytes. For
+///   the squared error (PSNR) against the page, a flat table is the best allocation at a given size
+///   (every DCT coefficient's error counts the same), and on photographic atlases it gives 2-3 dB
+///   more than the standard tables at the same bytes (docs/bench.md).
+enum class JpegTables { Standard, Flat };
+
+/// How a JPEG is coded beyond quality and subsampling.
+struct JpegCoding {
+  JpegTables tables = JpegTables::Standard;
+  /// Progressive scans (libjpeg's jpeg_simple_progression) with optimised Huffman tables: the same
+  /// pixels, fewer bytes (3-5% on atlases). Off: baseline with the standard Huffman tables.
+  bool progressive = false;
+};
+
+/// "standard", "flat".
+const char* jpeg_tables_name(JpegTables t);
+
 /// Writes an image atomically (temporary file, then rename). jpeg_quality in [1, 100].
 /// path: must end in .png for Png, .jpg/.jpeg for Jpeg (else ImageError); its folder must exist.
 /// image: 1-4 channels, pixels.size() == width*height*channels (else ImageError). JPEG stores 1 or
 ///        3 channels: the alpha of a 2- or 4-channel image is left out. PNG round-trips exactly.
 /// subsampling: chroma subsampling of a 3-channel JPEG (ignored for PNG and grey JPEG); the default
 ///        is libjpeg's own (4:2:0); the pipeline's pages pass output.jpeg_subsampling (4:4:4).
-/// Encoding: PNG with zlib level 6; JPEG baseline with libjpeg's standard tables scaled to the
-/// quality and Huffman tables, byte for byte what OpenImageIO 2.4 wrote (JFIF and an empty EXIF block).
+/// Encoding: PNG with zlib level 6; JPEG with the default `coding` (baseline, libjpeg's standard
+/// tables scaled to the quality and standard Huffman tables) is byte for byte what OpenImageIO 2.4
+/// wrote (JFIF and an empty EXIF block); `coding` may ask for flat tables and progressive scans.
 /// Throws ImageError naming `path`; on failure no file and no temporary is left.
 void write_image(const std::string& path, const Image& image, ImageFormat format, int jpeg_quality = 95,
-                 JpegSubsampling subsampling = JpegSubsampling::S420);
+                 JpegSubsampling subsampling = JpegSubsampling::S420, JpegCoding coding = {});
 
 }  // namespace texdefrag

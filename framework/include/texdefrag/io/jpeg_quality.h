@@ -35,10 +35,21 @@ std::optional<JpegSubsampling> read_jpeg_subsampling(const uint8_t* data, size_t
 /// read_jpeg_subsampling over a file's first 64 KiB. Empty when unreadable or not a JPEG.
 std::optional<JpegSubsampling> read_jpeg_subsampling_of_file(const std::string& path);
 
+/// The quality of the flat tables (image.h JpegTables::Flat) whose step is at most the root mean
+/// square step of the standard tables at `standard_quality` (luminance table for Y, chrominance
+/// table for Cb and Cr, each component counted once): the lowest flat quality whose quantisation
+/// noise (step^2 / 12 per coefficient) is no larger than the standard tables'. JPEG pages with flat
+/// tables never go below it, as standard pages never go below the input's estimate. E.g. 90 -> 48
+/// (rms step 16.8, mostly the chrominance table's 99 x 0.2), 95 -> 74, 98 -> 90, 100 -> 97 (step 1:
+/// flat 97-100 are one table). The step equivalence is that of coefficients larger than the steps;
+/// it is a floor for budgets the pages cannot meet, the fit raises the quality from it. Out-of-range
+/// input is clamped to [1, 100].
+int flat_quality_for_standard(int standard_quality);
+
 /// The bytes write_image writes for `image` as a JPEG at these settings (the same encoder), in
 /// memory. Throws ImageError starting with `name` when encoding fails.
 std::vector<uint8_t> encode_jpeg(const Image& image, int quality, JpegSubsampling subsampling,
-                                 const std::string& name = "page");
+                                 const std::string& name = "page", JpegCoding coding = {});
 
 /// What fit_jpeg_quality chose.
 struct JpegQualityFit {
@@ -61,6 +72,6 @@ struct JpegQualityFit {
 /// they do not, the search still returns a quality whose measured bytes fit, and the next quality
 /// it tried above it did not fit.
 JpegQualityFit fit_jpeg_quality(const std::vector<const Image*>& pages, int min_quality, int max_quality,
-                                JpegSubsampling subsampling, size_t budget);
+                                JpegSubsampling subsampling, size_t budget, JpegCoding coding = {});
 
 }  // namespace texdefrag

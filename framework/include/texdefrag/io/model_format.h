@@ -90,8 +90,12 @@ struct PageWriteOptions {
   ImageFormat format = ImageFormat::Png;
   int jpeg_quality = 95;  ///< [1, 100], used for Jpeg
   JpegSubsampling jpeg_subsampling = JpegSubsampling::S444;  ///< used for Jpeg
+  JpegCoding jpeg_coding;  ///< tables and progressive scans, used for Jpeg
   /// True when jpeg_quality is the one estimated from the input pages (match_input_quality).
   bool jpeg_quality_from_input = false;
+  /// The quality chosen before any flat-table mapping, as libjpeg's standard tables mean it: the
+  /// input's estimate or the configured jpeg_quality. Equals jpeg_quality with standard tables.
+  int jpeg_standard_quality = 95;
   /// The validated `output` section of the configuration, for format-specific keys (e.g. the glTF
   /// writer's output.draco); empty object when not given.
   json output_options = json::object();
@@ -160,8 +164,12 @@ PageEncoding page_encoding_of_file(const std::string& path);
 /// jpeg_subsampling: "4:4:4", "4:2:2" or "4:2:0" force the chroma subsampling of JPEG pages;
 ///   "input" takes the finest subsampling of the textured input JPEG pages (4:4:4 when none is
 ///   known). Anything else is a FormatError.
+/// coding: the JPEG tables and scans. With flat tables the quality chosen (estimate or jpeg_quality,
+///   kept in jpeg_standard_quality) becomes the flat tables' quality of no more quantisation noise,
+///   flat_quality_for_standard (io/jpeg_quality.h), so the floor means the same with both tables.
 PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& image_format, int jpeg_quality,
-                                     bool match_input_quality, const std::string& jpeg_subsampling = "4:4:4");
+                                     bool match_input_quality, const std::string& jpeg_subsampling = "4:4:4",
+                                     JpegCoding coding = {});
 
 /// output.jpeg_quality_fit "input_bytes" (docs/io.md "Page format"): when `po` writes JPEG pages
 /// at the quality estimated from the input (po.jpeg_quality_from_input), raises po.jpeg_quality to
@@ -170,7 +178,8 @@ PageWriteOptions choose_page_options(const LoadedModel& in, const std::string& i
 /// by fit_jpeg_quality (io/jpeg_quality.h). The quality is never lowered below the estimate.
 /// Nothing is searched (probes 0, po unchanged) for PNG pages, a quality not from the input,
 /// max_quality at or below the estimate (nothing to raise: the six OBJ development tiles' quality
-/// 100), no page, or a textured input page whose bytes are unknown.
+/// 100), no page, or a textured input page whose bytes are unknown. With flat tables (po.jpeg_coding)
+/// max_quality is a standard quality too and is mapped by flat_quality_for_standard.
 JpegQualityFit fit_page_quality(const LoadedModel& in, const std::vector<Image>& pages, PageWriteOptions& po,
                                 int max_quality);
 
