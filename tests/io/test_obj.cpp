@@ -216,6 +216,23 @@ TEST(ObjRead, PolygonsAreFanTriangulatedWithSourceLineAndCorner) {
   }
 }
 
+TEST(ObjRead, VertexColoursAreKeptOnePerPosition) {
+  const std::string dir = tt::temp_dir();
+  const std::string obj = write_text(dir, "c.obj",
+                                     "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0.25 0.5 0.125\nv 1 1 0 1\n"
+                                     "f 1 2 3\n");
+  // The 4th line is x y z w with w = 1: a plain position, so the file mixes -> error on line 4.
+  EXPECT_NE(obj_error(obj, no_textures()).find("c.obj:4: no vertex colour"), std::string::npos);
+  write_text(dir, "c.obj", "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0.25 0.5 0.125\nf 1 2 3\n");
+  const TexturedMesh m = read_obj(obj, no_textures());
+  ASSERT_EQ(m.colors.size(), 3u);
+  EXPECT_EQ(m.colors[1], Vec3(0, 1, 0));
+  EXPECT_EQ(m.colors[2], Vec3(0.25, 0.5, 0.125));
+  EXPECT_EQ(m.positions[2], Vec3(0, 1, 0));
+  const TexturedMesh plain = read_obj(write_text(dir, "p.obj", "v 0 0 0\nv 1 0 0 1\nv 0 1 0\nf 1 2 3\n"), no_textures());
+  EXPECT_TRUE(plain.colors.empty());
+}
+
 TEST(ObjRead, TexcoordWithThreeNumbersKeepsUV) {
   const std::string dir = tt::temp_dir();
   const std::string obj = write_text(dir, "vt3.obj", "vt 0.25 0.75 0\nvt 0.5 0.125\n");
@@ -388,7 +405,13 @@ INSTANTIATE_TEST_SUITE_P(
         ErrorCase{"huge_number", "v 1e999 0 0\n", 1, "outside the range of a double"},
         ErrorCase{"bad_token", "v 0 1.5x 0\n", 1, "expected a number, found '1.5x' (y of v)"},
         ErrorCase{"too_few_coords", "\nv 0 1\n", 2, "expected a number (z of v) before the end of the line"},
-        ErrorCase{"vertex_colour", "v 0 1 2 0.5 0.5 0.5\n", 1, "vertex colours are not supported"},
+        ErrorCase{"v_five_numbers", "v 0 1 2 0.5 0.5\n", 1, "or 6 (x y z r g b), found 5"},
+        ErrorCase{"v_eight_numbers", "v 0 1 2 1 0.5 0.5 0.5 1\n", 1, "found more"},
+        ErrorCase{"v_w_not_one", "v 0 1 2 2\n", 1, "w != 1"},
+        ErrorCase{"colour_after_plain", "v 0 0 0\nv 1 0 0\nv 0 1 0 0.5 0.5 0.5\n", 3,
+                  "a vertex colour (v x y z r g b), but the first v line (line 1) has none"},
+        ErrorCase{"plain_after_colour", "# c\nv 0 0 0 1 0 0\nv 1 0 0\n", 3,
+                  "no vertex colour, but the first v line (line 2) has one"},
         ErrorCase{"vt_one_number", "vt 0.5\n", 1, "expected a number (v of vt)"},
         ErrorCase{"vt_four_numbers", "vt 0 0 0 0\n", 1, "expected 2 or 3 numbers after vt"},
         ErrorCase{"vn_four_numbers", "vn 0 0 1 1\n", 1, "expected 3 numbers after vn"},
@@ -558,6 +581,30 @@ TEST(ObjWrite, RoundTripIsBitIdenticalAndKeepsFacesMaterialsGroups) {
   const std::string text = read_text(obj);
   write_obj(back, obj);
   EXPECT_EQ(read_text(obj), text);
+}
+
+TEST(ObjWrite, VertexColoursRoundTripBitIdenticalWithTheirPositions) {
+  const std::string dir = tt::temp_dir();
+  TexturedMesh m = writer_mesh(dir + "/elsewhere");
+  for (size_t i = 0; i < m.positions.size(); ++i) m.colors.emplace_back(0.1 * static_cast<double>(i), 1.0 / 3.0, 0.7);
+  const std::string obj = dir + "/out.obj";
+  write_obj(m, obj);
+  const TexturedMesh back = read_obj(obj, no_textures());
+  expect_same_mesh(m, back);
+  ASSERT_EQ(back.colors.size(), m.colors.size());
+  for (size_t i = 0; i < m.colors.size(); ++i) EXPECT_EQ(back.colors[i], m.colors[i]) << "colour " << i;
+  EXPECT_NE(read_text(obj).find(" 0 0.3333333333333333 0.7\nv "), std::string::npos) << read_text(obj);  // colour of position 0
+
+  // One colour per position or none: anything else is refused before a file is written.
+  m.colors.pop_back();
+  const std::string bad = dir + "/bad.obj";
+  try {
+    write_obj(m, bad);
+    ADD_FAILURE() << "a mesh with fewer colours than positions was written";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("vertex colours for"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(bad));
 }
 
 TEST(ObjWrite, TextFormOfFacesMaterialsAndMtl) {

@@ -343,15 +343,39 @@ class ObjReader {
     const double x = number(ln, line, is_v ? "x of v" : "x of vn");
     const double y = number(ln, line, is_v ? "y of v" : "y of vn");
     const double z = number(ln, line, is_v ? "z of v" : "z of vn");
-    if (!line.at_end()) {
-      if (!is_v) fail(path_, ln, "expected 3 numbers after vn, found more");
-      // note: `v x y z w` with w = 1 is the same point; anything else (w != 1, vertex colours)
-      // cannot be carried through, so it is an error rather than silently dropped.
-      const double w = number(ln, line, "w of v");
-      if (w != 1.0 || !line.at_end())
-        fail(path_, ln, "expected 3 numbers after v (a 4th, w, only if it is 1; vertex colours are not supported)");
+    if (!is_v) {
+      if (!line.at_end()) fail(path_, ln, "expected 3 numbers after vn, found more");
+    } else {
+      vertex_extra(ln, line);
     }
     out.emplace_back(x, y, z);
+  }
+
+  /// What follows x y z on a `v` line: nothing, w = 1 (the same point), or a colour r g b, which is
+  /// kept (TexturedMesh::colors). w != 1, other counts, and a file mixing coloured and plain `v`
+  /// lines cannot be carried through, so they are errors rather than silently dropped.
+  void vertex_extra(int ln, Line& line) {
+    double extra[4];
+    int n = 0;
+    while (!line.at_end()) {
+      if (n == 4) fail(path_, ln, "expected 3 numbers after v (x y z), 4 (x y z w, w = 1) or 6 (x y z r g b), found more");
+      extra[n] = number(ln, line, n == 0 ? "4th number of v" : n == 1 ? "5th number of v" : "6th number of v");
+      ++n;
+    }
+    if (n == 2 || n == 4)
+      fail(path_, ln, "expected 3 numbers after v (x y z), 4 (x y z w, w = 1) or 6 (x y z r g b), found " + std::to_string(3 + n));
+    if (n == 1 && extra[0] != 1.0)
+      fail(path_, ln, "v x y z w with w != 1 (a point at infinity or a scaled point) is not supported");
+    const bool coloured = n == 3;
+    if (mesh_.positions.empty()) {
+      first_v_line_ = ln;
+      coloured_ = coloured;
+    } else if (coloured != coloured_) {
+      fail(path_, ln, std::string(coloured ? "a vertex colour (v x y z r g b)" : "no vertex colour") + ", but the first v line (line " +
+                          std::to_string(first_v_line_) + ") has " + (coloured_ ? "one" : "none") +
+                          ": every v line must have a colour or none");
+    }
+    if (coloured) mesh_.colors.emplace_back(extra[0], extra[1], extra[2]);
   }
 
   void texcoord(int ln, Line& line) {
@@ -540,6 +564,8 @@ class ObjReader {
   const ObjReadOptions options_;
   fs::path dir_;
   TexturedMesh mesh_;
+  int first_v_line_ = 0;   ///< line of the first `v` statement
+  bool coloured_ = false;  ///< whether the first `v` line has a colour (then all must)
   std::vector<Corner> corners_;
   int material_ = kNoIndex;
   int group_ = kNoIndex;
@@ -792,7 +818,11 @@ std::vector<std::string> format_obj(const TexturedMesh& mesh, const std::string&
     for (int k = 0; k < n; ++k)
       if (!std::isfinite(d[k])) throw ObjError(obj_path + ": " + what + " " + std::to_string(i) + " is not finite");
   };
-  format_blocks(pieces, mesh.positions.size(), 48, [&](std::string& out, size_t i) {
+  if (!mesh.colors.empty() && mesh.colors.size() != mesh.positions.size())
+    throw ObjError(obj_path + ": " + std::to_string(mesh.colors.size()) + " vertex colours for " +
+                   std::to_string(mesh.positions.size()) + " positions (a TexturedMesh has one per position or none)");
+  const bool coloured = !mesh.colors.empty();
+  format_blocks(pieces, mesh.positions.size(), coloured ? 96 : 48, [&](std::string& out, size_t i) {
     const Vec3& p = mesh.positions[i];
     check_finite(p.data(), 3, "position", i);
     out += "v ";
@@ -801,6 +831,14 @@ std::vector<std::string> format_obj(const TexturedMesh& mesh, const std::string&
     append_double(out, p.y());
     out += ' ';
     append_double(out, p.z());
+    if (coloured) {
+      const Vec3& c = mesh.colors[i];
+      check_finite(c.data(), 3, "vertex colour", i);
+      for (int k = 0; k < 3; ++k) {
+        out += ' ';
+        append_double(out, c[k]);
+      }
+    }
     out += '\n';
   });
   format_blocks(pieces, mesh.texcoords.size(), 40, [&](std::string& out, size_t i) {

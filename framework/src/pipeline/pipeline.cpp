@@ -237,6 +237,7 @@ TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, con
                               const std::string& output_dir) {
   TexturedMesh out;
   out.positions = input.positions;
+  out.colors = input.colors;
   out.normals = input.normals;
   out.groups = input.groups;
   out.materials = input.materials;  // untextured faces keep theirs

@@ -63,6 +63,10 @@ struct Face {
 
 struct TexturedMesh {
   std::vector<Vec3> positions;
+  /// Vertex colours (`v x y z r g b`, as Metashape, RealityCapture and MeshLab may write them), one
+  /// per position, kept exactly as parsed and written back with their position; empty when the OBJ
+  /// has none. Either every `v` line of an OBJ has a colour or none has (the reader refuses a mix).
+  std::vector<Vec3> colors;
   std::vector<Vec2> texcoords;  ///< normalised (u, v), v up, as in the OBJ
   std::vector<Vec3> normals;
   std::vector<Face> faces;

@@ -16,9 +16,10 @@
 namespace texdefrag {
 
 /// Raised whenever a class a stage module derives from or calls (stage/stage.h, stage/registry.h)
-/// changes its layout or virtual functions, so a module built against older headers is refused with
-/// an error naming it instead of crashing. 2: Merger::distortion_budget (2026-12-02).
-constexpr int kPluginAbiVersion = 2;
+/// or a data structure it receives (core/mesh.h's TexturedMesh, ...) changes its layout or virtual
+/// functions, so a module built against older headers is refused with an error naming it instead
+/// of crashing. 2: Merger::distortion_budget (2026-12-02). 3: TexturedMesh::colors (2026-12-02).
+constexpr int kPluginAbiVersion = 3;
 
 struct RegistryError : std::runtime_error {
   using std::runtime_error::runtime_error;
