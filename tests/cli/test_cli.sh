@@ -42,6 +42,9 @@ before=$(sum_in)
 check "write_colored onto the input refused" 2 "'write_colored' = \"$work/in/building.obj\"" -- "$exe" run -q -c "$src/configs/repack.json" "$work/in/building.obj" -o "$work/o7" --set detector.type=detectors.angle_growing --set "detector.write_colored=$work/in/building.obj"
 check "output.name ../in/copy refused" 2 "output.name: '../in/copy'" -- "$exe" run -q -c "$src/configs/repack.json" "$work/in/building.obj" -o "$work/o8" --set output.name=../in/copy
 check "output.name absolute refused" 2 "output.name: '$work/abs'" -- "$exe" run -q -c "$src/configs/repack.json" "$work/in/building.obj" -o "$work/o8" --set "output.name=$work/abs"
+check "validate: write_colored names an .obj" 2 "write_colored 'in/building.mtl' must name an .obj file" -- "$exe" validate -c "$src/configs/best.json" --set detector.write_colored=in/building.mtl
+check "run: write_colored .mtl refused before reading" 2 "must name an .obj file" -- "$exe" run -q -c "$src/configs/best.json" "$work/in/building.obj" -o "$work/o10" --set detector.write_colored=in/building.mtl
+[ ! -e "$work/o10" ] || { echo "FAIL a refused write_colored left an output folder"; fail=$((fail+1)); }
 check "validate refuses output.name a/b" 2 "output.name: 'a/b'" -- "$exe" validate -c "$src/configs/repack.json" --set output.name=a/b
 [ "$(sum_in)" = "$before" ] && [ "$(ls "$work/in" | wc -l)" -eq 3 ] && [ ! -e "$work/abs.obj" ] || { echo "FAIL an input file was written"; fail=$((fail+1)); }
 # Issue 11, typed options: required, --set SECTION.type= resets, a stray library is skipped.

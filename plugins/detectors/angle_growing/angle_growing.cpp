@@ -20,6 +20,10 @@ constexpr const char* kName = "detectors.angle_growing";
 
 class AngleGrowingDetector final : public Detector {
  public:
+  void set_options(const Options& o) override {
+    Stage::set_options(o);
+    check_region_output_options(kName, o);
+  }
   static StageInfo info() {
     StageInfo i;
     i.name = kName;

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cctype>
 #include <filesystem>
 #include <map>
 #include <numeric>
@@ -18,9 +19,19 @@ std::vector<OptionSpec> output_options() {
                  "Write the regions as a per-face label file of this name in the output folder (the format "
                  "detectors.labels reads; .json = JSON, else one integer per line); empty = off"),
       opt_output_path("write_colored",
-                 "Write a region-coloured model (OBJ + MTL + palette PNG) of this OBJ name in the output "
+                 "Write a region-coloured model (OBJ + MTL + palette PNG) of this .obj name in the output "
                  "folder; empty = off"),
   };
+}
+
+void check_region_output_options(const std::string& who, const Options& options) {
+  const std::string colored = options.get_string("write_colored");
+  if (colored.empty()) return;
+  std::string ext = std::filesystem::path(colored).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".obj")
+    throw StageError(who + ": write_colored '" + colored + "' must name an .obj file (its MTL and palette PNG are written " +
+                     "beside it as <stem>.mtl and <stem>_palette.png)");
 }
 
 Regions regions_from_labels(const std::vector<int>& face_label) {

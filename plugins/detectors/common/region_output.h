@@ -13,6 +13,11 @@ namespace texdefrag::detectors {
 /// The options every detector declares: "write_labels" and "write_colored" (paths, empty = off).
 std::vector<OptionSpec> output_options();
 
+/// Checks the output options' names before any run (from each detector's set_options): write_colored
+/// must name an .obj file, since its MTL (<stem>.mtl) and palette (<stem>_palette.png) are written
+/// beside it and would otherwise take its own name. Throws StageError naming `who` and the option.
+void check_region_output_options(const std::string& who, const Options& options);
+
 /// Regions from arbitrary per-face labels: faces with equal labels >= 0 share a region; regions are
 /// numbered by decreasing face count (ties: first face first), so region 0 is the largest.
 /// face_label: one label per face, negative = no region (must be untextured faces).

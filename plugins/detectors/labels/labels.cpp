@@ -38,6 +38,7 @@ class LabelsDetector final : public Detector {
     Stage::set_options(o);
     const std::string other = o.get_string("intersect_with");
     if (other == kName) throw StageError(std::string(kName) + ": 'intersect_with' cannot be detectors.labels itself");
+    check_region_output_options(kName, o);
   }
 
   void detect(StageContext& ctx) override {

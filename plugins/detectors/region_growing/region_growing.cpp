@@ -1044,6 +1044,10 @@ void group_cylinders(const Units& U, const Params& p, std::vector<int>& region, 
 
 class RegionGrowingDetector final : public Detector {
  public:
+  void set_options(const Options& o) override {
+    Stage::set_options(o);
+    check_region_output_options(kName, o);
+  }
   static StageInfo info() {
     StageInfo i;
     i.name = kName;

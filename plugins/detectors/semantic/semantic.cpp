@@ -35,6 +35,10 @@ semantic::ClassifyOptions classify_options(const Options& o) {
 
 class SemanticDetector final : public Detector {
  public:
+  void set_options(const Options& o) override {
+    Stage::set_options(o);
+    check_region_output_options(kName, o);
+  }
   static StageInfo info() {
     const semantic::ClassifyOptions d;
     StageInfo i;
