@@ -6,7 +6,6 @@
 // cannot be flattened) is refused as `topology`.
 #include "engine_internal.h"
 
-#include <chrono>
 #include <set>
 
 namespace texdefrag::merge::detail {
@@ -142,24 +141,7 @@ bool Engine::try_close(int c, const std::vector<int>& edges, std::string& reason
     rollback(L);
     return false;
   }
-  if (seam_mostly_folded(mv)) {
-    reason = "orientation";
-    rollback(L);
-    return false;
-  }
-  free_region(mv);
-  if (opt_.fan_targets) free_fan_rings(mv);
-  solve(mv);
-  const auto t0 = std::chrono::steady_clock::now();
-  const char* why = check(mv);
-  L.rep.check_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (why) {
-    reason = why;
-    rollback(L);
-    return false;
-  }
-  commit(mv);
-  return true;
+  return settle_welded(mv, reason, L);
 }
 
 void Engine::close_cuts(Lane& L) {

@@ -217,6 +217,10 @@ class Engine {
   const char* check_orientation(Move& mv) const;
   /// Whether more than half of the seam edges are folded after the weld (rejected as `orientation`).
   bool seam_mostly_folded(const Move& mv) const;
+  /// What follows the weld in a merge and in a closed cut alike: the fold test, free_region (and
+  /// the fan rings with fan_targets), solve, the acceptance checks (timed into check_seconds), then
+  /// commit, or rollback with `reason` set. Returns whether the move was committed.
+  bool settle_welded(Move& mv, std::string& reason, Lane& L);
   /// Step 3: wedges within alpha * dmax of the welded ones (Dijkstra over UV lengths), nearest first.
   void free_region(Move& mv);
   /// Step 4: solves the local problem on the free wedges and writes the result into the atlas;

@@ -25,6 +25,10 @@ bool Engine::try_merge(int a, int b, std::string& reason, Lane& L) {
     return false;
   }
   weld(mv);
+  return settle_welded(mv, reason, L);
+}
+
+bool Engine::settle_welded(Move& mv, std::string& reason, Lane& L) {
   if (seam_mostly_folded(mv)) {
     reason = "orientation";
     rollback(L);
@@ -33,12 +37,10 @@ bool Engine::try_merge(int a, int b, std::string& reason, Lane& L) {
   free_region(mv);
   if (opt_.fan_targets) free_fan_rings(mv);
   solve(mv);
-  struct CheckTimer {
-    double& acc;
-    Clock::time_point t;
-    ~CheckTimer() { acc += seconds_since(t); }
-  } timer{L.rep.check_seconds, Clock::now()};
-  if (const char* why = check(mv)) {
+  const Clock::time_point t0 = Clock::now();
+  const char* why = check(mv);
+  L.rep.check_seconds += seconds_since(t0);
+  if (why) {
     reason = why;
     rollback(L);
     return false;
