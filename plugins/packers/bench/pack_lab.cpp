@@ -8,7 +8,8 @@
 // MODEL: any model file texdefrag reads, or glTF files sharing an atlas joined by '+' (read as one
 // model). With the environment variable PACK_LAB_OVERLAPS set, also prints overlapping UV triangle
 // pairs of the input, the merged atlas and every packing, split into pairs inside one chart and
-// across charts, by intersection area, and the pairs each step added.
+// across charts, by intersection area, and the pairs each step added. PACK_LAB_HASH prints a hash of
+// each layout (page sizes, chart pages, wedge UVs, bit for bit), to check a change keeps layouts.
 // CACHE.atlas is written when missing (detector + merger of CONFIG) and read otherwise. Each
 // PACKER (e.g. packers.square_tetris:gutter=4,width_trials=8) is run on the cached atlas; one line
 // per packer: model, packer, charts, efficiency, output MP, input MP, wall ms, CPU ms (square_tetris
@@ -288,6 +289,16 @@ int main(int argc, char** argv) {
       for (const auto& ps : pc.layout.pages) mp += static_cast<double>(ps.width) * ps.height / 1e6;
       std::printf("%s\t%s\t%d\t%.3f\t%.3f\t%.2f\t%.0f\t%.0f", model.c_str(), spec.c_str(), ctx.atlas.num_charts,
                   rep.value("packing_efficiency", 0.0), mp, in_mp, ms, cpu_ms);
+      if (std::getenv("PACK_LAB_HASH")) {  // FNV-1a of the layout: pages, chart pages, wedge UVs (bit-exact)
+        uint64_t h = 1469598103934665603ull;
+        auto mix = [&](const void* p, size_t n) {
+          for (size_t k = 0; k < n; ++k) h = (h ^ static_cast<const unsigned char*>(p)[k]) * 1099511628211ull;
+        };
+        for (const auto& ps : pc.layout.pages) { mix(&ps.width, sizeof ps.width); mix(&ps.height, sizeof ps.height); }
+        mix(pc.layout.chart_page.data(), pc.layout.chart_page.size() * sizeof(int));
+        for (const Vec2& p : pc.layout.wedge_uv) { const double xy[2] = {p.x(), p.y()}; mix(xy, sizeof xy); }
+        std::printf("\tlayout %016llx", static_cast<unsigned long long>(h));
+      }
       if (std::getenv("PACK_LAB_CHARTS"))
         std::printf("\texact %d free-rotated %d", rep.value("charts_exact", 0), rep.value("charts_rotated_free", 0));
       // square_tetris: UV area / outline texels / dilated outline texels (where the page goes)

@@ -19,6 +19,7 @@
 #include "texdefrag/packers/horizon.h"
 #include "texdefrag/packers/packing.h"
 #include "texdefrag/stage/registry.h"
+#include "texdefrag/util/parallel.h"
 
 #include <algorithm>
 #include <climits>
@@ -217,8 +218,11 @@ struct RunMask {
   long long outline_cells = 0, cells = 0;  ///< cells of the outline before and after dilation
 };
 
-RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s) {
-  const packing::Mask raw = c.raster(q);
+/// raw0: the chart's raster in turn 0 when the caller has it (used for q = 0), else null.
+RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s, const packing::Mask* raw0) {
+  packing::Mask own;
+  if (q != 0 || !raw0) own = c.raster(q);
+  const packing::Mask& raw = q != 0 || !raw0 ? own : *raw0;
   const packing::Mask m = packing::dilate(raw, s.gutter / 2, s.gutter - s.gutter / 2);
   RunMask r;
   r.outline_cells = std::count(raw.cells.begin(), raw.cells.end(), 1);
@@ -731,37 +735,50 @@ class SquareTetris : public Packer {
     std::vector<std::vector<packing::Profile>>& drops = t.drops;
     drops.assign(tail_skipped ? in.charts.size() : 0, {});
     double& need = t.need;
+    if (tail_skipped)  // side by side, one chart per item
+      parallel_for(order.size() - rects, [&](size_t i) {
+        const int id = order[rects + i];
+        drops[static_cast<size_t>(id)] = packing::make_profiles(in.charts[static_cast<size_t>(id)], s);
+      });
     for (size_t n = 0; n < order.size(); ++n) {
       const PackChart& c = in.charts[static_cast<size_t>(order[n])];
       if (n < rects) {
         need += static_cast<double>(packing::padded_w(c, 0, s)) * packing::padded_h(c, 0, s);
       } else if (tail_skipped) {
-        drops[static_cast<size_t>(order[n])] = packing::make_profiles(c, s);
         const packing::Profile& pr = drops[static_cast<size_t>(order[n])][0];
         for (int x = 0; x < pr.w; ++x)
           if (pr.top[static_cast<size_t>(x)] > 0) need += pr.top[static_cast<size_t>(x)] - pr.bottom[static_cast<size_t>(x)];
       }
     }
-    std::map<std::vector<int>, int> shapes;  // tail masks' cells -> shape id
     // Outline masks: the tail's, and the outlines that charts placed as rectangles occupy on the
     // tail's raster; none without a tail (rectangles only) or with a dropped tail.
-    for (size_t n = 0; n < order.size() && rects < order.size() && !tail_skipped; ++n) {
-      const PackChart& c = in.charts[static_cast<size_t>(order[n])];
-      const std::vector<packing::Profile> pr = packing::make_profiles(c, s);
-      auto& out = profiles[static_cast<size_t>(order[n])];
-      for (size_t q = 0; q < pr.size(); ++q) {
-        out.push_back(pr[q].duplicate ? RunMask{} : make_run_mask(c, static_cast<int>(q), s));
-        out.back().duplicate = pr[q].duplicate;
-        if (q == 0 && n >= rects) need += static_cast<double>(out.back().cells);
-        if (pr[q].duplicate || n < rects) continue;
-        std::vector<int> key{out.back().w, out.back().h};
-        for (const auto& row : out.back().rows) {
+    // note: built side by side, one chart per item (each writes its own slot); the chart's turn-0
+    // raster serves its turn profiles and its turn-0 mask (it was rasterised twice: 1M factory,
+    // rasterising was a third of the packer's CPU).
+    if (rects < order.size() && !tail_skipped)
+      parallel_for(order.size(), [&](size_t n) {
+        const PackChart& c = in.charts[static_cast<size_t>(order[n])];
+        const packing::Mask raw0 = c.raster(0);
+        const std::vector<packing::Profile> pr = packing::make_profiles(raw0, s);
+        auto& out = profiles[static_cast<size_t>(order[n])];
+        for (size_t q = 0; q < pr.size(); ++q) {
+          out.push_back(pr[q].duplicate ? RunMask{} : make_run_mask(c, static_cast<int>(q), s, &raw0));
+          out.back().duplicate = pr[q].duplicate;
+        }
+      });
+    // Shape ids and the tail's need, in order (labels only: the same whatever the thread count).
+    std::map<std::vector<int>, int> shapes;  // tail masks' cells -> shape id
+    for (size_t n = rects; n < order.size() && !tail_skipped; ++n)
+      for (RunMask& m : profiles[static_cast<size_t>(order[n])]) {
+        if (&m == &profiles[static_cast<size_t>(order[n])][0]) need += static_cast<double>(m.cells);
+        if (m.duplicate) continue;
+        std::vector<int> key{m.w, m.h};
+        for (const auto& row : m.rows) {
           key.push_back(-1);
           for (const auto& [a, len] : row) { key.push_back(a); key.push_back(len); }
         }
-        out.back().shape = shapes.emplace(std::move(key), static_cast<int>(shapes.size())).first->second;
+        m.shape = shapes.emplace(std::move(key), static_cast<int>(shapes.size())).first->second;
       }
-    }
     return t;
   }
 

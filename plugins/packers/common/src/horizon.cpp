@@ -303,9 +303,12 @@ Profile turned_profile(const std::vector<int>& cb, const std::vector<int>& ct, c
 }  // namespace
 
 std::vector<Profile> make_profiles(const PackChart& c, const CommonSettings& s) {
+  return make_profiles(c.raster(0), s);
+}
+
+std::vector<Profile> make_profiles(const Mask& m, const CommonSettings& s) {
   // note: one raster for all turns (rasterising each turn and dilating the mask took a third of
   // packers.tetris's time on 10,000 charts).
-  const Mask m = c.raster(0);
   std::vector<int> cb(static_cast<size_t>(m.width), INT_MAX), ct(static_cast<size_t>(m.width), 0);
   std::vector<int> rl(static_cast<size_t>(m.height), INT_MAX), rr(static_cast<size_t>(m.height), 0);
   // note: rows top down, branch-free per column (vectorised): the last row seen is the bottom.

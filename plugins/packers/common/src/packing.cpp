@@ -137,7 +137,10 @@ PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const
     c.tris.push_back(t);
   }
 
-  for (PackChart& c : in.charts) {
+  // note: one chart per item, side by side (each writes only its chart); the UV areas are summed
+  // afterwards in chart order, so the result does not depend on the thread count.
+  parallel_for(in.charts.size(), [&](size_t ci) {
+    PackChart& c = in.charts[ci];
     // Grid-exact face groups: (quarter turn m, fractional translation) -> UV area.
     std::map<std::tuple<int, long long, long long>, double> groups;
     std::map<std::tuple<int, long long, long long>, Vec2> group_t;
@@ -161,7 +164,6 @@ PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const
         break;
       }
     }
-    in.total_uv_area += c.uv_area;
     double best = 0;
     Vec2 best_t = Vec2::Zero();
     for (const auto& g : groups)
@@ -196,7 +198,8 @@ PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const
       for (size_t i = 0; i < c.wedges.size(); ++i) c.base[i] = c.angle != 0 ? rotate(pts[i], c.angle) : pts[i];
     }
     compute_boxes(c);
-  }
+  });
+  for (const PackChart& c : in.charts) in.total_uv_area += c.uv_area;
   return in;
 }
 

@@ -36,6 +36,9 @@ Profile make_profile(const PackChart& c, int q, const CommonSettings& s);
 /// turns repeating an earlier turn's outline marked `duplicate`.
 std::vector<Profile> make_profiles(const PackChart& c, const CommonSettings& s);
 
+/// The same from the chart's raster in turn 0 (PackChart::raster(0)), when the caller has it.
+std::vector<Profile> make_profiles(const Mask& raster0, const CommonSettings& s);
+
 /// The best resting place of a profile on a horizon.
 struct Drop {
   bool found = false;
