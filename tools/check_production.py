@@ -6,11 +6,15 @@ back every OSGB written, and the Khronos glTF validator (scripts/validate-gltf.j
 written. Prints a table per level (markdown) and writes one CSV row per file.
 
     tools/check_production.py INPUT_DIR OUTPUT_DIR --exe build/bin/texdefrag [-j 2] [--csv rows.csv]
+                              [--exact-copy]
 
 INPUT_DIR: the production's folder (an OSGB production, or a tileset's folder). Model files are
 every .osgb/.glb/.gltf under it whose output exists at the same relative path. Levels: `_L<n>_` in
 a file name (ContextCapture), `lod<n>` (Matterport tilesets), else "root". Exit code 0 when every
-file passed (no face lost, no osgconv or validator error), 1 otherwise, 2 on a usage error.
+file passed (no face lost, no osgconv or validator error; with --exact-copy, for a round trip without
+merging such as configs/repack.json, also every file's share of texels copied exactly 1: eval's
+`copied_fraction`, every sample of every face of non-zero UV area reads an output texel bit-identical
+to its input texel), 1 otherwise, 2 on a usage error.
 Page bytes come from the run reports (`<stem>.report.json` beside each output: the `write` node's
 `input_page_bytes` and `page_bytes`, the encoded page bytes of the model in and out), one per model
 (contents sharing one atlas are one model); eval's own page bytes are those of its lossless scratch
@@ -154,6 +158,8 @@ def main():
     ap.add_argument("--exe", required=True, help="texdefrag executable")
     ap.add_argument("-j", "--jobs", type=int, default=1)
     ap.add_argument("--csv", help="write one row per file here")
+    ap.add_argument("--exact-copy", action="store_true",
+                    help="fail every file whose share of texels copied is not exactly 1 (a repack round trip)")
     a = ap.parse_args()
     source = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     todo = pairs(a.input, a.output)
@@ -171,10 +177,10 @@ def main():
             w.writerows(rows)
     print(table(rows, model_reports(a.output)))
     bad = [r for r in rows if "error" in r or r.get("lost") or r.get("osgconv", "ok") != "ok"
-           or r.get("validator_errors")]
+           or r.get("validator_errors") or (a.exact_copy and r.get("copied") != 1.0)]
     for r in bad:
-        print(f"FAILED {r['file']}: {r.get('error') or {k: r.get(k) for k in ('lost', 'osgconv', 'validator_errors')}}",
-              file=sys.stderr)
+        keys = ("lost", "osgconv", "validator_errors") + (("copied",) if a.exact_copy else ())
+        print(f"FAILED {r['file']}: {r.get('error') or {k: r.get(k) for k in keys}}", file=sys.stderr)
     return 1 if bad else 0
 
 

@@ -230,6 +230,63 @@ TEST(TextureResample, WholeTexelTranslationIsCopied) {
   EXPECT_EQ(st.texels_copied, st.texels_written);
 }
 
+TEST(TextureResample, RepackOfOverlappingChartsAndAZeroAreaFaceCopiesEveryTexel) {
+  // What configs/repack.json does to a producer's atlas (issue 12): charts moved by whole texels.
+  // Chart A: input [1,5]^2 -> output +(8, 2), i.e. [9,13] x [3,7]; chart B overlaps A in the input,
+  // [3,7]^2 -> output +(-2, 7), i.e. [1,5] x [10,14]. A also holds a zero-UV-area face (drawn
+  // first): the segment y = 0.75, x in [1, 5], a quarter texel below A's edge, so it is nearer to
+  // the texels below that edge than A's own triangles are (before: those texels took the
+  // segment's centroid colour instead of their own). Every texel within one texel of a chart (the
+  // chart's rectangle grown by one texel: texel columns x0-1..x1, texel-space rows y0-1..y1) must
+  // equal the input texel it came from, with the default fit and fill of repack.json.
+  const Image img = pattern(16, 16);
+  Scene s;
+  const int in = s.add_input_page(img);
+  const int out = s.add_output_page(16, 16);
+  const int a = s.add_chart(in, out), b = s.add_chart(in, out);
+  const auto move = [](double dx, double dy) { return [=](const Vec2& p) -> Vec2 { return Vec2(p.x() + dx, p.y() + dy); }; };
+  const Vec2 s0(1, 0.75), s1(5, 0.75), s2(3, 0.75);
+  s.add_face(a, {s0, s1, s2}, {move(8, 2)(s0), move(8, 2)(s1), move(8, 2)(s2)});
+  s.add_rect(a, 1, 1, 5, 5, move(8, 2));
+  s.add_rect(b, 3, 3, 7, 7, move(-2, 7));
+  ResampleStats st;
+  ResampleOptions o;  // least-squares fit, pull-push: as repack.json
+  const auto pages = s.run(o, &st);
+  const auto expect_copied = [&](int x0, int y0, int x1, int y1, int dx, int dy) {
+    for (int x = x0 - 1; x <= x1; ++x)
+      for (int y = y0 - 1; y <= y1; ++y)  // texel-space texel (x, y) is image row 15 - y
+        EXPECT_TRUE(same_texel(pages[0], x + dx, 15 - (y + dy), img, x, 15 - y)) << "input texel " << x << "," << y;
+  };
+  expect_copied(1, 1, 5, 5, 8, 2);
+  expect_copied(3, 3, 7, 7, -2, 7);
+  EXPECT_EQ(st.faces_copied, 5u);
+  EXPECT_EQ(st.faces_resampled, 0u);
+  EXPECT_EQ(st.texels_written, 72u);  // two 6 x 6 grown rectangles
+  EXPECT_EQ(st.texels_copied, st.texels_written);
+  EXPECT_EQ(st.texels_fitted, 0u);
+}
+
+TEST(TextureResample, ZeroAreaFacesNeverOverwriteARealFacesBorder) {
+  // A segment face that is not a whole-texel move (scaled 2x) beside a copied rectangle, nearer to
+  // the texels below the rectangle's edge than the rectangle: drawn first or last, those texels
+  // keep the rectangle's copy (the segment only colours texels no real face reaches).
+  const Image img = pattern(16, 16);
+  for (const bool segment_first : {true, false}) {
+    Scene s;
+    const int in = s.add_input_page(img);
+    const int c = s.add_chart(in, s.add_output_page(16, 16));
+    const auto seg = [&] { s.add_face(c, {Vec2(1, 0.9), Vec2(3, 0.9), Vec2(2, 0.9)}, {Vec2(4, 4.8), Vec2(8, 4.8), Vec2(6, 4.8)}); };
+    if (segment_first) seg();
+    s.add_rect(c, 1, 1, 5, 5, [](const Vec2& p) -> Vec2 { return Vec2(p.x() + 4, p.y() + 4); });
+    if (!segment_first) seg();
+    ResampleStats st;
+    const auto pages = s.run(opts(Filter::Bilinear, GutterFill::None), &st);
+    // texel-space row y = 4 (centre 4.5: 0.3 from the segment, 0.5 from the rectangle), columns 4..8
+    for (int x = 4; x <= 8; ++x) EXPECT_TRUE(same_texel(pages[0], x, 15 - 4, img, x - 4, 15)) << x << " " << segment_first;
+    EXPECT_EQ(st.faces_resampled, 1u);
+  }
+}
+
 TEST(TextureResample, QuarterTurnsAreCopiedBitExact) {
   // 4x4 input with all texels distinct, the full page rotated about the page centre (2, 2).
   const Image img = make_image(4, 4, 3, [](int x, int y, int c) { return 10 * (y * 4 + x) + c; });

@@ -404,19 +404,25 @@ TexelWindow texel_window(const std::array<Vec2, 3>& o, double Wd, double Hd) {
   return win;
 }
 
-/// Renders a degenerate face (a point or a segment: no interior): border texels within
-/// kBorderRadius of it take the colour at the input centroid, where no interior texel is and no
-/// other triangle is nearer.
+/// Renders a degenerate face (a point or a segment: no interior): texels within kBorderRadius of it
+/// that no non-degenerate face wrote take the face's own texels when its map is a whole-texel move
+/// (find_copy_map on its corners: a zero-area face of an unscaled chart keeps its point's texels
+/// exactly), else the colour at the input centroid. Such a texel stores distance 1 + d (d < 1: its
+/// L-infinity distance), so any non-degenerate face's border (distance < 1) overwrites it whatever
+/// the drawing order, and between degenerate faces the nearer wins.
 template <int C>
 void render_degenerate_face(const FaceJob& job, const Sampler<C>& src, Filter filter, const TexelWindow& win,
                             Canvas& cv, PageStats& st) {
   const auto& o = job.out;
   const double Hd = cv.h;
   const double r = kBorderRadius;
-  st.faces_resampled++;
+  CopyMap cm;
+  const bool copy = find_copy_map(job.out, job.in, src.h, cv.h, cm);
+  if (copy) st.faces_copied++;
+  else st.faces_resampled++;
   uint8_t colour[C] = {};
   const Vec2 ci = (job.in[0] + job.in[1] + job.in[2]) / 3.0;
-  src.sample(filter, ci.x() - 0.5, src.h - ci.y() - 0.5, colour);
+  if (!copy) src.sample(filter, ci.x() - 0.5, src.h - ci.y() - 0.5, colour);
   // Distance test against the longest edge's supporting line plus the bounding box (exact for a
   // segment; a single point has only the box).
   int k0 = 0;
@@ -436,10 +442,11 @@ void render_degenerate_face(const FaceJob& job, const Sampler<C>& src, Filter fi
       if (!(dd < r)) continue;
       const size_t idx = cv.index(i, j);
       const uint8_t s = cv.state[idx] & kCoverMask;
-      if (s == kInterior || (s == kBorder && cv.dist[idx] <= dd)) continue;
-      cv.state[idx] = kBorder;
-      cv.dist[idx] = static_cast<float>(dd);
-      std::memcpy(cv.img->at(i, j), colour, C);
+      if (s == kInterior || (s == kBorder && cv.dist[idx] <= r + dd)) continue;
+      cv.state[idx] = static_cast<uint8_t>(kBorder | (copy ? kCopied : 0));
+      cv.dist[idx] = static_cast<float>(r + dd);
+      if (copy) std::memcpy(cv.img->at(i, j), src.texel_at(cm.ci * i + cm.cj * j + cm.c0, cm.ri * i + cm.rj * j + cm.r0), C);
+      else std::memcpy(cv.img->at(i, j), colour, C);
     }
   }
 }
