@@ -695,6 +695,11 @@ class SquareTetris : public Packer {
                                 "area and in decreasing shorter side, and the smallest result is kept (0: only the "
                                 "decreasing padded box area)")
                             .range(0, 100000000));
+    i.options.push_back(opt_int("width_refine", 8,
+                                "With an outline tail of at most order_trials_max_charts charts and width_trials > 1, the page widths 1 .. width_refine "
+                                "page_multiple steps narrower and wider than the best width are packed too (best tail order), "
+                                "keeping the smallest result (0: off)")
+                            .range(0, 64));
     i.create = [] { return std::make_unique<SquareTetris>(); };
     return i;
   }
@@ -808,6 +813,31 @@ class SquareTetris : public Packer {
     return out;
   }
 
+  /// The widths of the refinement (option width_refine): 1 .. width_refine page_multiple steps
+  /// narrower and wider than `best` (the best width of the trials), those not tried already
+  /// (`tried`), within [min_page_width, max_page_size]; none without an outline tail (rectangles
+  /// only: the paper's packer), when the tail is skipped or holds more than
+  /// order_trials_max_charts charts, with one width trial, or with power-of-two pages.
+  std::vector<int> refine_widths(const PackInput& in, const CommonSettings& s, const std::vector<int>& tried, int best,
+                                 size_t tail_charts, bool tail_skipped) const {
+    std::vector<int> out;
+    const long long steps = options().get_int("width_refine");
+    const long long max_charts = options().get_int("order_trials_max_charts");
+    if (steps <= 0 || tail_skipped || tail_charts == 0 || s.power_of_two || s.width_trials <= 1 || max_charts <= 0 ||
+        tail_charts > static_cast<size_t>(max_charts))
+      return out;
+    const int lo = packing::min_page_width(in, s);
+    for (long long k = 1; k <= steps; ++k)
+      for (const long long sign : {-1LL, 1LL}) {
+        const long long w = best + sign * k * s.page_multiple;
+        if (w < lo || w > s.max_page_size) continue;
+        const int wi = static_cast<int>(w);
+        if (std::find(tried.begin(), tried.end(), wi) == tried.end() && std::find(out.begin(), out.end(), wi) == out.end())
+          out.push_back(wi);
+      }
+    return out;
+  }
+
   void pack(StageContext& ctx) override {
     const std::string name = "packers.square_tetris";
     const CommonSettings s = packing::read_common(options());
@@ -842,13 +872,27 @@ class SquareTetris : public Packer {
     PackResult r;
     std::string best_order;
     const auto orders = tail_orders(in, s, order, tail, tail_skipped);
-    for (const auto& entry : orders) {
-      const std::vector<int>& o = entry.second;
-      PackResult t = packing::pack_best_width(in, s, plan.need, [&](int width, packing::TrialBound& bound) {
+    const std::vector<int> widths = packing::trial_widths(in, s, plan.need);
+    auto packer = [&](const std::vector<int>& o) {
+      return [&in, &s, &o, &plan, &ctx](int width, packing::TrialBound& bound) {
         return pack_square_tetris(in, s, o, plan.rects, plan.profiles, plan.drops, width, bound, ctx);
-      });
-      if (best_order.empty() || t.pages < r.pages || (t.pages == r.pages && t.total_area() < r.total_area()))
-        r = std::move(t), best_order = entry.first;
+      };
+    };
+    int best_width = 0;
+    const std::vector<int>* best_o = nullptr;
+    for (const auto& entry : orders) {
+      int w = 0;
+      // note: later orders stop a width as soon as it cannot beat the best so far (same result).
+      PackResult t = packing::pack_widths(in, s, widths, packer(entry.second), &w, best_order.empty() ? nullptr : &r);
+      if (best_order.empty() || packing::better_result(t, r))
+        r = std::move(t), best_order = entry.first, best_width = w, best_o = &entry.second;
+    }
+    const std::vector<int> extra = refine_widths(in, s, widths, best_width, tail_charts, tail_skipped);
+    bool refined = false;
+    if (!extra.empty()) {
+      int w = 0;
+      PackResult t = packing::pack_widths(in, s, extra, packer(*best_o), &w, &r);
+      if (packing::better_result(t, r)) r = std::move(t), best_width = w, refined = true;
     }
     const std::vector<std::vector<RunMask>>& profiles = plan.profiles;
     ctx.step(name, 1.0);
@@ -860,6 +904,8 @@ class SquareTetris : public Packer {
       (*ctx.report)["outline_tail_skipped"] = tail_skipped;
       (*ctx.report)["tail_orders_tried"] = orders.size();
       (*ctx.report)["tail_order"] = best_order;
+      (*ctx.report)["page_width_trials"] = widths.size() * orders.size() + extra.size();
+      (*ctx.report)["page_width_refined"] = refined;
       // where the page area goes: UV area / rasterised outlines / outlines dilated by the gutter
       long long outline = 0, padded = 0;
       for (const auto& p : profiles)

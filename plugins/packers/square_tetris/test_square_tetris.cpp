@@ -241,6 +241,51 @@ TEST(PackersSquareTetris, TailOrdersKeepTheSmallestPacking) {
   EXPECT_GE(other_wins, 1);
 }
 
+TEST(PackersSquareTetris, WidthRefineKeepsTheSmallestPackingAndStopsBeyondTheTailLimit) {
+  // The tail sets of TailOrdersKeepTheSmallestPacking (other seeds): the widths around the best one
+  // (width_refine steps of page_multiple) are packed too; the result is never larger than without
+  // them, strictly smaller whenever the report says a refined width was kept, and the refinement
+  // is off beyond order_trials_max_charts tail charts.
+  auto area = [](const PackRun& r) {
+    double s = 0;
+    for (const auto& p : r.ctx.layout.pages) s += static_cast<double>(p.width) * p.height;
+    return s;
+  };
+  int refined_wins = 0;
+  for (uint32_t seed : {5u, 6u, 7u, 8u, 9u, 10u}) {
+    std::vector<std::vector<Vec2>> polys;
+    auto next = [&](int lo, int hi) {
+      seed = seed * 1664525u + 1013904223u;
+      return lo + static_cast<int>((seed >> 8) % static_cast<uint32_t>(hi - lo + 1));
+    };
+    for (int i = 0; i < 30; ++i) {
+      const double x = 300.0 * (i % 8), y = 300.0 * (i / 8);
+      const double a = next(20, 200), b = next(20, 200), t = next(5, 60);
+      if (i % 2 == 0) polys.push_back({{x, y}, {x + a, y}, {x, y + b}});
+      else polys.push_back({{x, y}, {x + a, y}, {x + a, y + t}, {x + t, y + t}, {x + t, y + b}, {x, y + b}});
+    }
+    auto plain = run_packer(kName, polygon_mesh(polys, 4096), {{"width_refine", 0}});
+    EXPECT_FALSE(plain->report.at("page_width_refined").get<bool>());
+    auto refined = run_packer(kName, polygon_mesh(polys, 4096), nlohmann::json::object());
+    expect_valid_layout(*refined, 4);
+    EXPECT_GT(refined->report.at("page_width_trials").get<int>(), plain->report.at("page_width_trials").get<int>());
+    EXPECT_LE(area(*refined), area(*plain));
+    if (refined->report.at("page_width_refined").get<bool>()) {
+      EXPECT_LT(area(*refined), area(*plain));
+      ++refined_wins;
+    } else {
+      EXPECT_EQ(refined->ctx.layout.wedge_uv, plain->ctx.layout.wedge_uv);
+    }
+    const int tail = plain->report.at("tail_charts").get<int>();
+    auto beyond = run_packer(kName, polygon_mesh(polys, 4096), {{"order_trials_max_charts", tail - 1}});
+    EXPECT_FALSE(beyond->report.at("page_width_refined").get<bool>());
+    EXPECT_EQ(beyond->report.at("page_width_trials").get<int>(),
+              plain->report.at("page_width_trials").get<int>() / plain->report.at("tail_orders_tried").get<int>());
+  }
+  std::printf("refined width kept on %d of 6 sets\n", refined_wins);
+  EXPECT_GE(refined_wins, 1);
+}
+
 namespace {
 /// Lowest output UV corner of each polygon's chart (polygon i = faces 2i and 2i + 1: quads only).
 std::vector<Vec2> quad_corners(const PackRun& run, size_t quads) {

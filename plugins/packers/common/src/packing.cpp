@@ -259,8 +259,7 @@ PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
   return pack_best_width(in, s, padded_box_area(in, s), pack_with_width);
 }
 
-PackResult pack_best_width(const PackInput& in, const CommonSettings& s, double padded,
-                           const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width) {
+int min_page_width(const PackInput& in, const CommonSettings& s) {
   int min_width = 1;
   for (const PackChart& c : in.charts) {
     if (c.faces.empty()) continue;
@@ -270,6 +269,11 @@ PackResult pack_best_width(const PackInput& in, const CommonSettings& s, double 
         mw = std::min(mw, padded_w(c, q, s));
     min_width = std::max(min_width, mw);
   }
+  return min_width;
+}
+
+std::vector<int> trial_widths(const PackInput& in, const CommonSettings& s, double padded) {
+  const int min_width = min_page_width(in, s);
   std::vector<int> widths;
   const double page = static_cast<double>(s.max_page_size) * s.max_page_size;
   if (padded >= 0.9 * page || s.width_trials <= 1) {
@@ -288,7 +292,23 @@ PackResult pack_best_width(const PackInput& in, const CommonSettings& s, double 
         if (std::find(widths.begin(), widths.end(), w) == widths.end()) widths.push_back(w);
       }
   }
+  return widths;
+}
+
+PackResult pack_best_width(const PackInput& in, const CommonSettings& s, double padded,
+                           const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width) {
+  return pack_widths(in, s, trial_widths(in, s, padded), pack_with_width);
+}
+
+bool better_result(const PackResult& a, const PackResult& b) {
+  return a.pages < b.pages || (a.pages == b.pages && a.total_area() < b.total_area());
+}
+
+PackResult pack_widths(const PackInput& in, const CommonSettings& s, const std::vector<int>& widths,
+                       const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width, int* chosen,
+                       const PackResult* incumbent) {
   TrialBoard board(widths.size());
+  if (incumbent && incumbent->pages == 1) board.seed(incumbent->total_area());
   std::vector<PackResult> results(widths.size());
   parallel_for(widths.size(), [&](size_t i) {
     TrialBound bound(board, i);
@@ -299,9 +319,8 @@ PackResult pack_best_width(const PackInput& in, const CommonSettings& s, double 
   });
   size_t best = 0;
   for (size_t i = 1; i < results.size(); ++i)
-    if (results[i].pages < results[best].pages ||
-        (results[i].pages == results[best].pages && results[i].total_area() < results[best].total_area()))
-      best = i;
+    if (better_result(results[i], results[best])) best = i;
+  if (chosen) *chosen = widths[best];
   return std::move(results[best]);
 }
 
@@ -313,6 +332,7 @@ void TrialBoard::record(size_t index, const PackResult& r) {
 
 bool TrialBoard::beaten(size_t index, size_t pages, double area) const {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (seed_ >= 0 && (pages > 1 || area >= seed_)) return true;
   for (size_t j = 0; j < single_.size(); ++j) {
     const double a = single_[j];
     if (j == index || a < 0) continue;

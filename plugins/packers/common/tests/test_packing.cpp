@@ -244,3 +244,18 @@ TEST(PackersCommon, TrialBoardStopsOnlyTrialsThatCannotWin) {
   EXPECT_FALSE(board.beaten(2, 1, 99.0));
   EXPECT_FALSE(board.beaten(1, 1, 1e9));    // a trial is not bounded by its own result
 }
+
+TEST(PackersCommon, TrialBoardSeededByAnEarlierPackingStopsTrialsThatCannotBeatIt) {
+  // An earlier packing (another tail order) gave one page of 100 texels^2: a trial must use less.
+  TrialBoard board(2);
+  board.seed(100.0);
+  EXPECT_TRUE(board.beaten(0, 1, 100.0));  // a tie keeps the earlier packing
+  EXPECT_FALSE(board.beaten(0, 1, 99.0));
+  EXPECT_TRUE(board.beaten(1, 2, 1.0));    // a second page loses to a single page
+  PackResult one_page;
+  one_page.pages = 1;
+  one_page.sizes = {{9, 9}};
+  board.record(0, one_page);               // and the trials still bound each other
+  EXPECT_TRUE(board.beaten(1, 1, 81.0));
+  EXPECT_FALSE(board.beaten(1, 1, 80.0));
+}

@@ -129,10 +129,14 @@ class TrialBoard {
   /// needs more area than that page, or as much when the other trial's index is lower (ties keep
   /// the earlier width).
   bool beaten(size_t index, size_t pages, double area) const;
+  /// Records a single page of `area` texels^2 found before this set (an earlier packing that every
+  /// trial must beat: one needing as much area or more pages cannot).
+  void seed(double area) { seed_ = area; }
 
  private:
   mutable std::mutex mutex_;
   std::vector<double> single_;  ///< per trial, < 0: no single page (yet)
+  double seed_ = -1;            ///< < 0: none
 };
 
 /// Early stop of pack_best_width's width trials, with the same result as packing every width in
@@ -182,6 +186,25 @@ PackResult pack_best_width(const PackInput& in, const CommonSettings& s,
 /// padded_area: texels^2, > 0 (e.g. boxes of rectangles + dilated outline cells of the rest).
 PackResult pack_best_width(const PackInput& in, const CommonSettings& s, double padded_area,
                            const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width);
+
+/// The page widths pack_best_width tries for charts needing `padded_area` texels^2 (see there).
+std::vector<int> trial_widths(const PackInput& in, const CommonSettings& s, double padded_area);
+
+/// The narrowest page width every chart fits in with its gutter (some allowed turn), texels.
+int min_page_width(const PackInput& in, const CommonSettings& s);
+
+/// Packs each of `widths` (side by side, a TrialBoard stopping hopeless trials) and returns the
+/// best: the fewest pages, then the least page area, then the earliest width; its width goes to
+/// *chosen when given. The result does not depend on the thread count. widths: not empty, each at
+/// least min_page_width. pack_with_width: as for pack_best_width. incumbent: an earlier result the
+/// caller keeps unless one of these beats it (better_result); when it is a single page, trials stop
+/// as soon as they cannot beat it (a stopped trial's result is marked losing, TrialBound::lose).
+PackResult pack_widths(const PackInput& in, const CommonSettings& s, const std::vector<int>& widths,
+                       const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width,
+                       int* chosen = nullptr, const PackResult* incumbent = nullptr);
+
+/// Whether a beats b: fewer pages, or as many and less page area (sized results).
+bool better_result(const PackResult& a, const PackResult& b);
 
 /// Sum of the charts' cell boxes grown by the gutter, orientation 0 (texels^2).
 double padded_box_area(const PackInput& in, const CommonSettings& s);
