@@ -267,145 +267,237 @@ class CornerGrid {
 
 }  // namespace
 
-size_t remesh(const Shape& shape, double edge, Rng& rng, RawMesh* out) {
-  VertexPool pool;
-  CornerGrid corners;
-  // 1. corners, merged across polygons
-  std::vector<std::vector<std::vector<int>>> ring_ids(shape.polygons.size());
-  for (size_t pi = 0; pi < shape.polygons.size(); ++pi) {
-    const Polygon& P = shape.polygons[pi];
-    auto add_ring = [&](const std::vector<Vec3>& r) {
-      std::vector<int> ids;
-      for (const Vec3& p : r) {
-        const size_t before = pool.pos.size();
-        const int id = pool.find_or_add(p);
-        if (pool.pos.size() != before) corners.add(id, p);
-        if (ids.empty() || ids.back() != id) ids.push_back(id);
-      }
-      while (ids.size() > 1 && ids.front() == ids.back()) ids.pop_back();
-      ring_ids[pi].push_back(ids);
-    };
-    add_ring(P.outer);
-    for (const auto& h : P.holes) add_ring(h);
+namespace {
+
+/// The remesher's state across polygons: merged vertices, polygon corners, and the points of every
+/// elementary boundary segment (between two corners), created once so that every polygon sharing a
+/// segment uses the same points.
+class Remesher {
+ public:
+  Remesher(const Shape& shape, double edge) : shape_(shape), edge_(edge) {}
+
+  /// 1. Corners, merged across polygons.
+  void add_corners() {
+    ring_ids_.assign(shape_.polygons.size(), {});
+    for (size_t pi = 0; pi < shape_.polygons.size(); ++pi) {
+      const Polygon& P = shape_.polygons[pi];
+      auto add_ring = [&](const std::vector<Vec3>& r) {
+        std::vector<int> ids;
+        for (const Vec3& p : r) {
+          const size_t before = pool_.pos.size();
+          const int id = pool_.find_or_add(p);
+          if (pool_.pos.size() != before) corners_.add(id, p);
+          if (ids.empty() || ids.back() != id) ids.push_back(id);
+        }
+        while (ids.size() > 1 && ids.front() == ids.back()) ids.pop_back();
+        ring_ids_[pi].push_back(ids);
+      };
+      add_ring(P.outer);
+      for (const auto& h : P.holes) add_ring(h);
+    }
   }
-  // 2. ring edges split at T-junctions and subdivided once per elementary segment
-  std::unordered_map<uint64_t, std::vector<int>> segment_points;
-  auto subdivide = [&](int a, int b) {
+
+  /// One pass over every polygon: boundary points, interior points drawn from rng, Delaunay
+  /// triangulation, the triangles inside the polygon (when out). Boundary segments (consecutive
+  /// boundary points) that are not edges of their polygon's triangulation go to `missing`.
+  size_t pass(Rng& rng, bool out) {
+    size_t predicted = 0;
+    tris_.clear();
+    face_plane_.clear();
+    interior_pos_.clear();
+    missing_.clear();
+    pair_segment_.clear();
+    for (size_t pi = 0; pi < shape_.polygons.size(); ++pi) predicted += polygon(pi, rng, out);
+    return predicted;
+  }
+
+  /// Splits every missing boundary segment at its midpoint, in the shared point list of the
+  /// elementary segment holding it (so every polygon along it gets the point). Returns how many.
+  size_t split_missing() {
+    size_t n = 0;
+    for (const auto& [a, b] : missing_) {
+      auto it = pair_segment_.find(pair_key(a, b));
+      if (it == pair_segment_.end()) continue;
+      const uint64_t key = it->second;
+      std::vector<int> seq{static_cast<int>(key >> 32)};
+      std::vector<int>& pts = segment_points_[key];
+      seq.insert(seq.end(), pts.begin(), pts.end());
+      seq.push_back(static_cast<int>(key & 0xffffffffu));
+      for (size_t i = 0; i + 1 < seq.size(); ++i) {
+        if (!((seq[i] == a && seq[i + 1] == b) || (seq[i] == b && seq[i + 1] == a))) continue;
+        pool_.pos.push_back(0.5 * (pool_.pos[static_cast<size_t>(a)] + pool_.pos[static_cast<size_t>(b)]));
+        pts.insert(pts.begin() + static_cast<std::ptrdiff_t>(i), static_cast<int>(pool_.pos.size()) - 1);
+        ++n;
+        break;
+      }
+    }
+    return n;
+  }
+
+  /// The mesh of the last pass (interior vertices follow the pool's).
+  void write(RawMesh* out) {
+    const int base = static_cast<int>(pool_.pos.size());
+    out->positions = pool_.pos;
+    out->positions.insert(out->positions.end(), interior_pos_.begin(), interior_pos_.end());
+    for (auto& f : tris_)
+      for (int& id : f)
+        if (id < 0) id = base + (-1 - id);
+    out->tris = std::move(tris_);
+    out->face_plane = std::move(face_plane_);
+  }
+
+ private:
+  static uint64_t pair_key(int a, int b) {
+    return (static_cast<uint64_t>(std::min(a, b)) << 32) | static_cast<uint64_t>(std::max(a, b));
+  }
+  /// The points inside elementary segment (a, b), from a to b (created on first use).
+  std::vector<int> subdivide(int a, int b) {
     const int lo = std::min(a, b), hi = std::max(a, b);
-    const uint64_t key = (static_cast<uint64_t>(lo) << 32) | static_cast<uint64_t>(hi);
-    auto it = segment_points.find(key);
-    if (it == segment_points.end()) {
-      const Vec3 A = pool.pos[static_cast<size_t>(lo)], B = pool.pos[static_cast<size_t>(hi)];
-      const int n = std::max(1, static_cast<int>(std::lround((B - A).norm() / edge)));
+    const uint64_t key = pair_key(lo, hi);
+    auto it = segment_points_.find(key);
+    if (it == segment_points_.end()) {
+      const Vec3 A = pool_.pos[static_cast<size_t>(lo)], B = pool_.pos[static_cast<size_t>(hi)];
+      const int n = std::max(1, static_cast<int>(std::lround((B - A).norm() / edge_)));
       std::vector<int> ids;
       for (int i = 1; i < n; ++i) {
         const double t = static_cast<double>(i) / n;
-        pool.pos.push_back(A + t * (B - A));
-        ids.push_back(static_cast<int>(pool.pos.size()) - 1);
+        pool_.pos.push_back(A + t * (B - A));
+        ids.push_back(static_cast<int>(pool_.pos.size()) - 1);
       }
-      it = segment_points.emplace(key, std::move(ids)).first;
+      it = segment_points_.emplace(key, std::move(ids)).first;
     }
     std::vector<int> pts = it->second;
     if (a != lo) std::reverse(pts.begin(), pts.end());
     return pts;
-  };
-
-  size_t predicted = 0;
-  if (out) {
-    out->tris.clear();
-    out->face_plane.clear();
   }
-  std::vector<Vec3> interior_pos;  // appended after the pool's vertices
-  std::vector<std::array<int, 3>> tris;
-  std::vector<int> face_plane;
-  for (size_t pi = 0; pi < shape.polygons.size(); ++pi) {
-    const Polygon& P = shape.polygons[pi];
-    // frame of the plane: (u, v, n) right-handed
-    const Vec3 n = P.normal;
-    const Vec3 ref = std::abs(n.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
-    const Vec3 u = ref.cross(n).normalized();
-    const Vec3 v = n.cross(u);
-    const Vec3 origin = P.outer[0];
-    auto to2 = [&](const Vec3& p) { return Vec2((p - origin).dot(u), (p - origin).dot(v)); };
+  size_t polygon(size_t pi, Rng& rng, bool out);
 
-    std::vector<std::vector<Vec2>> rings2;
-    std::vector<int> ids;  // boundary vertex ids, then interior (negative: -1 - interior index)
-    std::vector<Vec2> pts;
-    for (const auto& ring : ring_ids[pi]) {
-      if (ring.size() < 3) continue;
-      std::vector<Vec2> r2;
-      for (size_t i = 0; i < ring.size(); ++i) {
-        const int a = ring[i], b = ring[(i + 1) % ring.size()];
-        r2.push_back(to2(pool.pos[static_cast<size_t>(a)]));
-        std::vector<int> chain = corners.on_segment(pool.pos, a, b);
-        chain.insert(chain.begin(), a);
-        chain.push_back(b);
-        for (size_t c = 0; c + 1 < chain.size(); ++c) {
-          ids.push_back(chain[c]);
-          pts.push_back(to2(pool.pos[static_cast<size_t>(chain[c])]));
-          for (int m : subdivide(chain[c], chain[c + 1])) {
-            ids.push_back(m);
-            pts.push_back(to2(pool.pos[static_cast<size_t>(m)]));
-          }
+  const Shape& shape_;
+  double edge_;
+  VertexPool pool_;
+  CornerGrid corners_;
+  std::vector<std::vector<std::vector<int>>> ring_ids_;
+  std::unordered_map<uint64_t, std::vector<int>> segment_points_;
+  std::unordered_map<uint64_t, uint64_t> pair_segment_;  ///< boundary pair -> its elementary segment
+  std::vector<std::pair<int, int>> missing_;
+  std::vector<Vec3> interior_pos_;  ///< appended after the pool's vertices
+  std::vector<std::array<int, 3>> tris_;
+  std::vector<int> face_plane_;
+};
+
+size_t Remesher::polygon(size_t pi, Rng& rng, bool out) {
+  const Polygon& P = shape_.polygons[pi];
+  // frame of the plane: (u, v, n) right-handed
+  const Vec3 n = P.normal;
+  const Vec3 ref = std::abs(n.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
+  const Vec3 u = ref.cross(n).normalized();
+  const Vec3 v = n.cross(u);
+  const Vec3 origin = P.outer[0];
+  auto to2 = [&](const Vec3& p) { return Vec2((p - origin).dot(u), (p - origin).dot(v)); };
+
+  std::vector<std::vector<Vec2>> rings2;
+  std::vector<int> ids;  // boundary vertex ids, then interior (negative: -1 - interior index)
+  std::vector<Vec2> pts;
+  std::vector<std::pair<size_t, size_t>> ring_range;  // [first, end) of each ring's points in pts
+  for (const auto& ring : ring_ids_[pi]) {
+    if (ring.size() < 3) continue;
+    std::vector<Vec2> r2;
+    const size_t first = pts.size();
+    for (size_t i = 0; i < ring.size(); ++i) {
+      const int a = ring[i], b = ring[(i + 1) % ring.size()];
+      r2.push_back(to2(pool_.pos[static_cast<size_t>(a)]));
+      std::vector<int> chain = corners_.on_segment(pool_.pos, a, b);
+      chain.insert(chain.begin(), a);
+      chain.push_back(b);
+      for (size_t c = 0; c + 1 < chain.size(); ++c) {
+        std::vector<int> seg{chain[c]};
+        for (int m : subdivide(chain[c], chain[c + 1])) seg.push_back(m);
+        seg.push_back(chain[c + 1]);
+        for (size_t k = 0; k + 1 < seg.size(); ++k) {
+          pair_segment_[pair_key(seg[k], seg[k + 1])] = pair_key(chain[c], chain[c + 1]);
+          ids.push_back(seg[k]);
+          pts.push_back(to2(pool_.pos[static_cast<size_t>(seg[k])]));
         }
       }
-      rings2.push_back(std::move(r2));
     }
-    if (rings2.empty()) continue;
-    const size_t n_boundary = pts.size();
-    // interior: jittered hexagonal grid, kept away from the boundary
-    Vec2 lo = rings2[0][0], hi = rings2[0][0];
-    for (const auto& r : rings2)
-      for (const Vec2& q : r) {
-        lo = lo.cwiseMin(q);
-        hi = hi.cwiseMax(q);
-      }
-    const double dy = edge * 0.8660254037844386;
-    const double ox = rng.uniform(0, edge), oy = rng.uniform(0, dy);
-    const double keep2 = (0.55 * edge) * (0.55 * edge);
-    int row = 0;
-    for (double y = lo.y() + oy; y < hi.y(); y += dy, ++row) {
-      std::vector<Vec2> line;
-      for (double x = lo.x() + ox + (row % 2 ? edge / 2 : 0.0); x < hi.x(); x += edge) {
-        const Vec2 q(x + rng.uniform(-0.3, 0.3) * edge, y + rng.uniform(-0.3, 0.3) * dy);
-        if (!inside(rings2, q) || dist2_to_rings(rings2, q) < keep2) continue;
-        line.push_back(q);
-      }
-      if (row % 2) std::reverse(line.begin(), line.end());  // boustrophedon: coherent insertion
-      for (const Vec2& q : line) {
-        pts.push_back(q);
-        ids.push_back(-1 - static_cast<int>(interior_pos.size()));
-        interior_pos.push_back(origin + q.x() * u + q.y() * v);
-      }
+    ring_range.emplace_back(first, pts.size());
+    rings2.push_back(std::move(r2));
+  }
+  if (rings2.empty()) return 0;
+  const size_t n_boundary = pts.size();
+  // interior: jittered hexagonal grid, kept away from the boundary
+  Vec2 lo = rings2[0][0], hi = rings2[0][0];
+  for (const auto& r : rings2)
+    for (const Vec2& q : r) {
+      lo = lo.cwiseMin(q);
+      hi = hi.cwiseMax(q);
     }
-    const size_t n_interior = pts.size() - n_boundary;
-    predicted += 2 * n_interior + n_boundary + 2 * (rings2.size() - 1) - 2;
-    if (!out) continue;
-    Delaunay dt(pts);
-    dt.insert_all();
-    const double min_area = 1e-6 * edge * edge;
-    for (const auto& t : dt.triangles()) {
-      const Vec2& a = pts[static_cast<size_t>(t[0])];
-      const Vec2& b = pts[static_cast<size_t>(t[1])];
-      const Vec2& c = pts[static_cast<size_t>(t[2])];
-      if (orient(a, b, c) < min_area) continue;
-      if (!inside(rings2, (a + b + c) / 3.0)) continue;
-      std::array<int, 3> f;
-      for (int k = 0; k < 3; ++k) f[static_cast<size_t>(k)] = ids[static_cast<size_t>(t[static_cast<size_t>(k)])];
-      tris.push_back(f);
-      face_plane.push_back(P.plane);
+  const double dy = edge_ * 0.8660254037844386;
+  const double ox = rng.uniform(0, edge_), oy = rng.uniform(0, dy);
+  const double keep2 = (0.55 * edge_) * (0.55 * edge_);
+  int row = 0;
+  for (double y = lo.y() + oy; y < hi.y(); y += dy, ++row) {
+    std::vector<Vec2> line;
+    for (double x = lo.x() + ox + (row % 2 ? edge_ / 2 : 0.0); x < hi.x(); x += edge_) {
+      const Vec2 q(x + rng.uniform(-0.3, 0.3) * edge_, y + rng.uniform(-0.3, 0.3) * dy);
+      if (!inside(rings2, q) || dist2_to_rings(rings2, q) < keep2) continue;
+      line.push_back(q);
+    }
+    if (row % 2) std::reverse(line.begin(), line.end());  // boustrophedon: coherent insertion
+    for (const Vec2& q : line) {
+      pts.push_back(q);
+      ids.push_back(-1 - static_cast<int>(interior_pos_.size()));
+      interior_pos_.push_back(origin + q.x() * u + q.y() * v);
     }
   }
+  const size_t n_interior = pts.size() - n_boundary;
+  const size_t predicted = 2 * n_interior + n_boundary + 2 * (rings2.size() - 1) - 2;
   if (!out) return predicted;
-  // interior vertices follow the pool's
-  const int base = static_cast<int>(pool.pos.size());
-  out->positions = pool.pos;
-  out->positions.insert(out->positions.end(), interior_pos.begin(), interior_pos.end());
-  for (auto& f : tris)
-    for (int& id : f)
-      if (id < 0) id = base + (-1 - id);
-  out->tris = std::move(tris);
-  out->face_plane = std::move(face_plane);
+  Delaunay dt(pts);
+  dt.insert_all();
+  std::unordered_map<uint64_t, char> dt_edges;
+  const double min_area = 1e-6 * edge_ * edge_;
+  for (const auto& t : dt.triangles()) {
+    for (int k = 0; k < 3; ++k) dt_edges[pair_key(t[static_cast<size_t>(k)], t[static_cast<size_t>((k + 1) % 3)])] = 1;
+    const Vec2& a = pts[static_cast<size_t>(t[0])];
+    const Vec2& b = pts[static_cast<size_t>(t[1])];
+    const Vec2& c = pts[static_cast<size_t>(t[2])];
+    if (orient(a, b, c) < min_area) continue;
+    if (!inside(rings2, (a + b + c) / 3.0)) continue;
+    std::array<int, 3> f;
+    for (int k = 0; k < 3; ++k) f[static_cast<size_t>(k)] = ids[static_cast<size_t>(t[static_cast<size_t>(k)])];
+    tris_.push_back(f);
+    face_plane_.push_back(P.plane);
+  }
+  // A boundary segment the triangulation did not keep: triangles cross the polygon's boundary there
+  // (their winding can disagree with the neighbouring polygon's).
+  for (const auto& [first, end] : ring_range)
+    for (size_t i = first; i < end; ++i) {
+      const size_t j = i + 1 < end ? i + 1 : first;
+      if (!dt_edges.count(pair_key(static_cast<int>(i), static_cast<int>(j)))) missing_.emplace_back(ids[i], ids[j]);
+    }
+  return predicted;
+}
+
+/// Passes of the conforming refinement before giving up (each splits every missing segment).
+constexpr int kMaxConformingPasses = 8;
+
+}  // namespace
+
+size_t remesh(const Shape& shape, double edge, Rng& rng, RawMesh* out) {
+  Remesher r(shape, edge);
+  r.add_corners();
+  if (!out) return r.pass(rng, false);
+  // Conforming: a boundary segment that is not an edge of its polygon's Delaunay triangulation is
+  // split at its midpoint (in every polygon sharing it) and every polygon is meshed again with the
+  // same interior points, until every boundary segment is kept.
+  const Rng start = rng;
+  for (int pass = 0;; ++pass) {
+    rng = start;
+    r.pass(rng, true);
+    if (pass == kMaxConformingPasses || r.split_missing() == 0) break;
+  }
+  r.write(out);
   return out->tris.size();
 }
 

@@ -300,3 +300,27 @@ TEST(SynthHard, OverlappingChimneysAreNotBuiltSoTheWindingIsConsistent) {
   EXPECT_GT(m.mesh.faces.size(), 20000u);
   EXPECT_EQ(same_direction_edges(m.mesh), 0u);
 }
+
+// The hard data set `--count 8 --seed 11 --min-faces 8000 --max-faces 30000` (docs/bench.md), b0003
+// (a hotel, 9.5k faces): its balcony openings are 0.2 m high, shorter than the mesh edge, and the
+// walls' Delaunay triangulations did not keep the openings' long boundary segments; wall triangles
+// reached across them and 16 edges ran the same way round as the slabs'. The remesher now splits
+// every boundary segment its polygon's triangulation lost (in every polygon sharing it) and meshes
+// again until all are kept (a conforming triangulation).
+TEST(SynthHard, ThinBalconySlabsKeepTheirWallsBoundarySoTheWindingIsConsistent) {
+  DatasetOptions d;
+  d.count = 8;
+  d.seed = 11;
+  d.min_faces = 8000;
+  d.max_faces = 30000;
+  d.render_pages = false;
+  ASSERT_TRUE(apply_preset("hard", d.base));
+  d.preset = "hard";
+  const std::vector<SynthOptions> plan = dataset_plan(d);
+  ASSERT_EQ(plan.size(), 8u);
+  SynthOptions o = plan[3];
+  o.render_pages = false;
+  const SynthModel m = generate(o);
+  EXPECT_GT(m.mesh.faces.size(), 8000u);
+  EXPECT_EQ(same_direction_edges(m.mesh), 0u);
+}
