@@ -118,6 +118,7 @@ struct PairState {
   int attempts = 0;
   double penalty = 1;    ///< the M-method's penalty, doubled on each rejection
   int va = -1, vb = -1;  ///< versions of the newest queue entry of this pair
+  std::string last_reason;  ///< why its last attempt was refused (empty: never refused)
 };
 
 /// The state of one merge queue and of the moves it runs: the whole atlas's (the engine's main lane),
@@ -374,6 +375,9 @@ class Engine {
   /// Rebuilds every chart's seam adjacency from the seam edges (after lanes left some stale).
   void rebuild_adjacency();
   void start_second_pass(double local_bound);
+  /// Fills rep_.seam_left: the seams still cut when the engine stops, by why they are (docs/mergers.md
+  /// step 9): each adjacent chart pair's 3D seam length under its last refusal reason.
+  void measure_seams_left();
 
   const TexturedMesh& mesh_;
   const Topology& topo_;

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <limits>
 #include <numeric>
+#include <set>
 #include <thread>
 
 namespace texdefrag::merge::detail {
@@ -394,7 +395,10 @@ double Engine::score(Lane& L, int a, int b, int& refusal) {
   }
   const double ra = la > 0 ? A.border / la : 1e30, rb = lb > 0 ? B.border / lb : 1e30;
   const double cost = err * std::min(ra, rb) * std::min(A.uv_area, B.uv_area) * L.pair_state(a, b).penalty;
-  const double mean_seam = nedges ? 0.5 * (la + lb) / static_cast<double>(nedges) : 0;
+  // note: the M-method program refuses when the mean pair distance exceeds 2 x the mean of the seam's
+  // two UV lengths (its matching threshold times the whole seam), not 2 x one edge.
+  const double seam_len = 0.5 * (la + lb);
+  const double mean_seam = opt_.alignment_per_edge ? (nedges ? seam_len / static_cast<double>(nedges) : 0) : seam_len;
   if (la < 0.2 * A.border && lb < 0.2 * B.border && !(across_ && !opt_.second_pass_seam_refusal) &&
       !island_lookahead(a, b, kIslandLookaheadSteps))
     refusal = 1;
@@ -507,6 +511,7 @@ MergeReport Engine::run(const Progress& progress) {
     rep_.close_cuts_seconds = std::chrono::duration<double>(Clock::now() - t2).count();
   }
   if (progress) progress(1.0);
+  measure_seams_left();
   add_counters(rep_, main_.rep);
   rep_.mean_free_vertices = main_.free_count ? main_.free_total / static_cast<double>(main_.free_count) : 0;
   rep_.charts_out = static_cast<size_t>(at_.compact());
@@ -658,6 +663,39 @@ void Engine::start_second_pass(double local_bound) {
   }
 }
 
+void Engine::measure_seams_left() {
+  std::set<long long> pairs;
+  for (size_t ei = 0; ei < topo_.edges.size(); ++ei) {
+    const Edge& e = topo_.edges[ei];
+    if (e.num_faces != 2 || e.a == e.b) continue;
+    const EdgeIncidence& x = topo_.edge_faces[static_cast<size_t>(e.first_incidence)];
+    const EdgeIncidence& y = topo_.edge_faces[static_cast<size_t>(e.first_incidence + 1)];
+    const int ca = chart(x.face), cb = chart(y.face);
+    if (ca < 0 || cb < 0) continue;
+    if (topo_.face_degenerate[static_cast<size_t>(x.face)] || topo_.face_degenerate[static_cast<size_t>(y.face)])
+      continue;
+    std::string why;
+    if (ca == cb) {
+      const int w0 = wedge(x.face, corner_of(x.face, e.a)), w1 = wedge(x.face, corner_of(x.face, e.b));
+      const int g0 = wedge(y.face, corner_of(y.face, e.a)), g1 = wedge(y.face, corner_of(y.face, e.b));
+      if (w0 == g0 && w1 == g1) continue;  // not a seam
+      why = "cut";
+    } else if (!candidate(ca, cb)) {
+      why = "not_candidate";
+    } else {
+      const auto it = main_.pairs.find(static_cast<long long>(std::min(ca, cb)) << 32 |
+                                       static_cast<long long>(std::max(ca, cb)));
+      why = it == main_.pairs.end() || it->second.last_reason.empty() ? "never_attempted" : it->second.last_reason;
+    }
+    MergeReport::SeamLeft& s = rep_.seam_left[why];
+    ++s.edges;
+    s.length_3d += (mesh_.positions[static_cast<size_t>(topo_.position_of_vertex[static_cast<size_t>(e.a)])] -
+                    mesh_.positions[static_cast<size_t>(topo_.position_of_vertex[static_cast<size_t>(e.b)])]).norm();
+    if (pairs.insert(static_cast<long long>(std::min(ca, cb)) << 32 | static_cast<long long>(std::max(ca, cb))).second)
+      ++s.pairs;
+  }
+}
+
 void Engine::drain(Lane& L, const Progress& progress, double base, double span) {
   size_t popped = 0;
   while (!L.queue.empty() && static_cast<long long>(L.rep.accepted) < L.max_merges) {
@@ -676,6 +714,7 @@ void Engine::drain(Lane& L, const Progress& progress, double base, double span) 
     ++ps.attempts;
     if (e.refusal) {
       ++L.rep.rejected[kRefusal[e.refusal]];
+      ps.last_reason = kRefusal[e.refusal];
       continue;
     }
     std::string reason;
@@ -701,6 +740,7 @@ void Engine::drain(Lane& L, const Progress& progress, double base, double span) 
       }
     } else {
       ++L.rep.rejected[reason];
+      ps.last_reason = reason;
       ps.penalty *= 2;  // the M-method's penalty (used by its cost only)
     }
   }

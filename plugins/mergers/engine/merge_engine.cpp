@@ -23,6 +23,11 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
       opt_enum("priority", "planarity", {"planarity", "mmethod"},
                "Merge order: 'planarity' = largest max(I_a,I_b)*max(area_a,area_b) first (Liu et al.); "
                "'mmethod' = smallest alignment-error cost first, with the M-method's refusals and penalty doubling"),
+      opt_enum("alignment_scale", "seam", {"seam", "edge"},
+               "Under the 'mmethod' order, refuse a pair (alignment_error) when the mean distance between the seam's "
+               "paired wedges after the rigid fit exceeds 2 x this length: 'seam' = the seam's UV length (mean of its "
+               "two sides; the M-method program's rule), 'edge' = the seam's mean UV edge length (stricter by the "
+               "seam's edge count; before 2026-12-02)"),
       opt_double("alpha", 5, "Free-region radius as a multiple of the largest weld displacement").range(0, 1000),
       opt_double("global_bound", 0.025,
                  "Reject a merge when the area-weighted ARAP distortion over all textured faces exceeds this")
@@ -73,6 +78,7 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
 MergeOptions merge_options_from(const Options& o) {
   MergeOptions m;
   m.priority = o.get_enum<Priority>("priority", {{"planarity", Priority::Planarity}, {"mmethod", Priority::MMethod}});
+  m.alignment_per_edge = o.get_enum<bool>("alignment_scale", {{"seam", false}, {"edge", true}});
   m.alpha = o.get_double("alpha");
   m.global_bound = o.get_double("global_bound");
   m.local_bound = o.get_double("local_bound");
@@ -128,6 +134,14 @@ json MergeReport::to_json() const {
   json crej = json::object();
   for (const auto& [k, v] : cut_rejected) crej[k] = v;
   j["cut_rejected"] = crej;
+  json left = json::object();
+  double left_total = 0;
+  for (const auto& [k, v] : seam_left) {
+    left[k] = {{"pairs", v.pairs}, {"edges", v.edges}, {"length_3d", v.length_3d}};
+    left_total += v.length_3d;
+  }
+  j["seam_left"] = left;
+  j["seam_left_length_3d"] = left_total;
   j["distortion_in"] = distortion_in;
   j["optimisation_seconds"] = optimisation_seconds;
   j["check_seconds"] = check_seconds;

@@ -43,6 +43,9 @@ enum class SecondPass {
 
 struct MergeOptions {
   Priority priority = Priority::Planarity;  ///< merge order
+  /// The M-method's alignment refusal scales with the seam's mean UV edge length (true, before 2026-12-02) instead of its whole
+  /// UV length (the program's rule; docs/mergers.md step 2).
+  bool alignment_per_edge = false;
   double alpha = 5;             ///< free-region radius as a multiple of the largest weld displacement
   double global_bound = 0.025;  ///< reject when the global area-weighted ARAP distortion exceeds this
   double local_bound = 0.5;     ///< reject when the free region's area-weighted ARAP error exceeds this
@@ -98,6 +101,15 @@ struct MergeReport {
   size_t cuts_closed = 0;        ///< closing moves accepted
   size_t cut_edges_closed = 0;   ///< self-seam edges they welded
   std::map<std::string, size_t> cut_rejected;  ///< closing moves refused, by reason (`topology` or a merge's)
+  /// Seams left cut at the end, by the reason they are (docs/mergers.md step 9): the last refusal of
+  /// the chart pair (a rejection name), `not_candidate` (locked, no region or another page),
+  /// `never_attempted`, or `cut` (a seam inside one chart closing cuts did not close). Per reason:
+  /// seam edges and their 3D length.
+  struct SeamLeft {
+    size_t pairs = 0, edges = 0;
+    double length_3d = 0;
+  };
+  std::map<std::string, SeamLeft> seam_left;
   double distortion_in = 0;           ///< global ARAP distortion of the atlas given to the engine
   double distortion_out = 0;          ///< after merging (recomputed from scratch)
   size_t flipped_out = 0;             ///< faces with det J <= 0 after merging (must be 0)

@@ -421,5 +421,81 @@ TEST(MergeEngineSteps, AnInputChartsOwnOverlapDoesNotRefuseTheMerge) {
   EXPECT_EQ(out, 1u);
   EXPECT_EQ(s.run.ctx.atlas.face_chart[0], s.run.ctx.atlas.face_chart[4]);  // one chart
 }
+/// Two columns of n unit squares side by side in z = 0 ([0,1]x[0,n] and [1,2]x[0,n]), one chart
+/// each, sharing the n-edge seam x = 1. The left chart's texels are (8 + 16x, 8 + 16y); the right
+/// chart's are (40 + 16 s (x - 1), 8 + 16 s y): the same layout scaled by s. Page 1024^2.
+TexturedMesh two_columns(int n, double s) {
+  TexturedMesh m;
+  Page pg;
+  pg.material = "m";
+  pg.width = pg.height = 1024;
+  pg.image_path = "unused.png";
+  m.pages.push_back(pg);
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= 2; ++i) m.positions.emplace_back(i, j, 0);
+  auto id = [](int i, int j) { return j * 3 + i; };
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < 2; ++i) {
+      const int q[2][3] = {{id(i, j), id(i + 1, j), id(i + 1, j + 1)}, {id(i, j), id(i + 1, j + 1), id(i, j + 1)}};
+      for (const auto& t : q) {
+        Face f;
+        f.page = 0;
+        f.source_line = static_cast<int>(m.faces.size()) + 1;
+        for (int k = 0; k < 3; ++k) {
+          const Vec3& p = m.positions[static_cast<size_t>(t[k])];
+          const Vec2 tx = i == 0 ? Vec2(8 + 16 * p.x(), 8 + 16 * p.y()) : Vec2(40 + 16 * s * (p.x() - 1), 8 + 16 * s * p.y());
+          f.v[static_cast<size_t>(k)] = t[k];
+          f.vt[static_cast<size_t>(k)] = static_cast<int>(m.texcoords.size());
+          m.texcoords.push_back(tx / 1024.0);
+        }
+        m.faces.push_back(f);
+      }
+    }
+  return m;
+}
+
+/// The M-method's alignment refusal, by hand. Two columns of n = 16 squares, the right one's texels
+/// scaled by s = 2. The seam's 17 wedge pairs lie on one line each side (left at 16 j, right at 32 j
+/// texels, j = 0..16); the best rigid motion only matches their centres, so pair j stays 16 |j - 8|
+/// texels apart: mean error 16 x 72 / 17 = 67.8 texels. The seam's UV length is 256 texels on the
+/// left and 512 on the right: mean 384, mean edge 24. The program's rule refuses above 2 x 384 = 768
+/// (not here); the per-edge rule refused above 2 x 24 = 48 (here). Once attempted, the weld of a
+/// 2x-scaled column cannot meet the 0.025 budget, so either way the charts stay apart, and the seam
+/// left is reported under the reason that stopped it (16 edges of 3D length 1).
+TEST(MergeEngineSteps, TheAlignmentRefusalScalesWithTheWholeSeam) {
+  for (bool per_edge : {true, false}) {
+    test::Run run(two_columns(16, 2));
+    ASSERT_EQ(run.ctx.atlas.num_charts, 2);
+    MergeOptions o;
+    o.priority = Priority::MMethod;
+    o.alignment_per_edge = per_edge;
+    ArapSolver solver;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {}, o, solver, {});
+    EXPECT_EQ(r.charts_out, 2u);
+    EXPECT_EQ(r.rejected.count("alignment_error"), per_edge ? 1u : 0u);
+    EXPECT_EQ(r.attempted, per_edge ? 0u : 1u);  // a refused pair is never welded
+    ASSERT_EQ(r.seam_left.size(), 1u);
+    const auto& [why, left] = *r.seam_left.begin();
+    if (per_edge) EXPECT_EQ(why, "alignment_error");
+    else EXPECT_NE(why, "alignment_error");
+    EXPECT_EQ(left.pairs, 1u);
+    EXPECT_EQ(left.edges, 16u);
+    EXPECT_NEAR(left.length_3d, 16.0, 1e-12);
+    test::expect_valid_atlas(run);
+  }
+  // Scaled by 1.5 the error is 16 x 0.5 x 72 / 17 = 33.9 texels, under both rules' limits (2 x 20
+  // per edge): the pair is attempted under either.
+  for (bool per_edge : {true, false}) {
+    test::Run run(two_columns(16, 1.5));
+    MergeOptions o;
+    o.priority = Priority::MMethod;
+    o.alignment_per_edge = per_edge;
+    ArapSolver solver;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {}, o, solver, {});
+    EXPECT_EQ(r.rejected.count("alignment_error"), 0u);
+    EXPECT_EQ(r.attempted, 1u);
+  }
+}
+
 }  // namespace
 }  // namespace texdefrag::merge
