@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 namespace fs = std::filesystem;
 using namespace texdefrag;
@@ -274,6 +275,94 @@ TEST(JpegQualityFit, HighestQualityWithinTheBytesCapDeterministically) {
   EXPECT_FALSE(none.within_budget);
   EXPECT_EQ(none.bytes, bytes[70]);
   EXPECT_THROW(fit_jpeg_quality(pages, 90, 80, JpegSubsampling::S444, 1), ImageError);
+}
+
+std::vector<uint8_t> read_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<uint8_t>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// The highest quality whose measured bytes fit: `bytes` holds every quality's total.
+int highest_fitting(const std::vector<size_t>& bytes, int lo, size_t budget) {
+  int best = lo;
+  for (int q = lo; q <= 100; ++q)
+    if (bytes[static_cast<size_t>(q)] <= budget) best = q;
+  return best;
+}
+
+// Pages of 2048 rows or more are predicted on a sample, then measured whole: the answer is the
+// same as a search over whole pages would give (bytes here grow with quality), with 1 and 2
+// threads alike, and the whole pages are encoded at a handful of qualities, not a bisection's 11.
+TEST(JpegQualityFit, TallPagesArePredictedOnSamplesAndMeasuredWhole) {
+  const Image tall = noisy(40, 2200, 3), small = noisy(33, 70, 9);
+  const std::vector<const Image*> pages = {&tall, &small};
+  std::vector<size_t> bytes(101, 0);
+  for (int q = 60; q <= 100; ++q) bytes[static_cast<size_t>(q)] = total_jpeg_bytes(pages, q);
+  for (int q = 60; q <= 100; ++q) ASSERT_GE(bytes[static_cast<size_t>(q)], bytes[static_cast<size_t>(q) - 1]) << q;
+  for (int q = 60; q < 100; q += 3) {
+    const size_t budget = bytes[static_cast<size_t>(q)] + 1;
+    set_thread_count(1);
+    const JpegQualityFit one = fit_jpeg_quality(pages, 60, 100, JpegSubsampling::S444, budget);
+    set_thread_count(2);
+    const JpegQualityFit two = fit_jpeg_quality(pages, 60, 100, JpegSubsampling::S444, budget);
+    EXPECT_EQ(one.quality, highest_fitting(bytes, 60, budget)) << q;
+    EXPECT_EQ(one.bytes, bytes[static_cast<size_t>(one.quality)]) << q;
+    EXPECT_TRUE(one.within_budget) << q;
+    EXPECT_GT(one.sample_probes, 0) << q;
+    EXPECT_LE(one.probes, 4) << q;
+    EXPECT_EQ(one.quality, two.quality) << q;
+    EXPECT_EQ(one.probes, two.probes) << q;
+    EXPECT_EQ(one.sample_probes, two.sample_probes) << q;
+    // The answer's streams are kept for the writer: exactly what encoding the pages gives.
+    ASSERT_EQ(one.streams.size(), 2u) << q;
+    EXPECT_EQ(one.streams[0], encode_jpeg(tall, one.quality, JpegSubsampling::S444)) << q;
+    EXPECT_EQ(one.streams[1], encode_jpeg(small, one.quality, JpegSubsampling::S444)) << q;
+  }
+  set_thread_count(0);
+}
+
+// write_page writes the kept stream when there is one, and encodes the page otherwise; a count of
+// streams that is not the count of pages is refused, naming the file.
+TEST(JpegQualityFit, WritePageWritesTheKeptStreamOrEncodes) {
+  const fs::path dir = texdefrag::testing::temp_dir();
+  const std::vector<Image> pages = {noisy(24, 16, 2)};
+  PageWriteOptions po;
+  po.format = ImageFormat::Jpeg;
+  po.jpeg_quality = 80;
+  write_page((dir / "a.jpg").string(), pages, 0, po);
+  EXPECT_EQ(read_bytes(dir / "a.jpg"), encode_jpeg(pages[0], 80, po.jpeg_subsampling));
+  po.encoded = {{0xFF, 0xD8, 1, 2, 3}};  // not a real JPEG: proves the kept bytes are what is written
+  write_page((dir / "b.jpg").string(), pages, 0, po);
+  EXPECT_EQ(read_bytes(dir / "b.jpg"), po.encoded[0]);
+  EXPECT_EQ(encode_page(pages, 0, po), po.encoded[0]);
+  po.encoded.push_back({1});
+  EXPECT_THROW(write_page((dir / "c.jpg").string(), pages, 0, po), ImageError);
+}
+
+// A sample can mislead: here every sampled band (16 rows of every 128) is flat and the rest is
+// noise, so the sample predicts far too few bytes. The search from the prediction still steps
+// down to the measured answer; a floor that does not fit is kept and reported as over.
+TEST(JpegQualityFit, AMisleadingSampleDoesNotChangeTheAnswer) {
+  Image page = noisy(32, 2048, 5);
+  for (int y = 0; y < page.height; ++y)
+    if (y % 128 < 16)
+      for (int x = 0; x < page.width; ++x)
+        for (int c = 0; c < page.channels; ++c) page.at(x, y)[c] = 128;
+  const std::vector<const Image*> pages = {&page};
+  std::vector<size_t> bytes(101, 0);
+  for (int q = 50; q <= 100; ++q) bytes[static_cast<size_t>(q)] = total_jpeg_bytes(pages, q);
+  for (int q : {50, 62, 75, 88, 97}) {
+    const size_t budget = bytes[static_cast<size_t>(q)];
+    const JpegQualityFit fit = fit_jpeg_quality(pages, 50, 100, JpegSubsampling::S444, budget);
+    EXPECT_EQ(fit.quality, highest_fitting(bytes, 50, budget)) << q;
+    EXPECT_EQ(fit.bytes, bytes[static_cast<size_t>(fit.quality)]) << q;
+    EXPECT_TRUE(fit.within_budget) << q;
+    EXPECT_GT(fit.probes, 2) << q;  // the prediction (100) was over: it stepped down
+  }
+  const JpegQualityFit none = fit_jpeg_quality(pages, 50, 100, JpegSubsampling::S444, bytes[50] - 1);
+  EXPECT_EQ(none.quality, 50);
+  EXPECT_FALSE(none.within_budget);
+  EXPECT_EQ(none.bytes, bytes[50]);
 }
 
 // fit_page_quality raises only a quality matched from the input, up to max_quality, against the

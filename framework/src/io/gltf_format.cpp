@@ -101,8 +101,8 @@ GltfOutput GltfFormat::build(const LoadedModel& in, const TexturedMesh& out_mesh
   const auto* src = dynamic_cast<const GltfSource*>(in.source.get());
   if (!src) throw FormatError(in.path + ": not read by the glTF format");
   std::vector<EncodedPage> enc;
-  for (const Image& p : pages)
-    enc.push_back({page_options.format == ImageFormat::Jpeg ? "image/jpeg" : "image/png", encode_image(p, page_options)});
+  for (size_t p = 0; p < pages.size(); ++p)
+    enc.push_back({page_options.format == ImageFormat::Jpeg ? "image/jpeg" : "image/png", encode_page(pages, p, page_options)});
   GltfOutputPaths paths;
   paths.documents = names;
   const std::string root = src->root, who = in.path;

@@ -8,6 +8,9 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -148,10 +151,34 @@ JpegQualityFit fit_page_quality(const LoadedModel& in, const std::vector<Image>&
   if (budget == 0) return none;
   std::vector<const Image*> images;
   for (const Image& image : pages) images.push_back(&image);
-  const JpegQualityFit fit =
-      fit_jpeg_quality(images, po.jpeg_quality, max_quality, po.jpeg_subsampling, budget, po.jpeg_coding);
+  JpegQualityFit fit = fit_jpeg_quality(images, po.jpeg_quality, max_quality, po.jpeg_subsampling, budget, po.jpeg_coding);
   po.jpeg_quality = fit.quality;
+  po.encoded = std::move(fit.streams);  // the writer writes these instead of encoding again
+  fit.streams.clear();
   return fit;
+}
+
+void write_page(const std::string& path, const std::vector<Image>& pages, size_t p, const PageWriteOptions& options) {
+  if (options.encoded.empty()) {
+    write_image(path, pages[p], options.format, options.jpeg_quality, options.jpeg_subsampling, options.jpeg_coding);
+    return;
+  }
+  if (options.encoded.size() != pages.size())
+    throw ImageError(path + ": " + std::to_string(options.encoded.size()) + " encoded pages for " +
+                     std::to_string(pages.size()) + " pages");
+  const std::vector<uint8_t>& bytes = options.encoded[p];
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (!f) throw ImageError(path + ": cannot create the page: " + std::strerror(errno));
+  const bool wrote = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
+  const int write_errno = errno;
+  if (std::fclose(f) != 0 || !wrote)
+    throw ImageError(path + ": cannot write the page (" + std::to_string(bytes.size()) +
+                     " bytes): " + std::strerror(wrote ? errno : write_errno));
+}
+
+std::vector<uint8_t> encode_page(const std::vector<Image>& pages, size_t p, const PageWriteOptions& options) {
+  if (!options.encoded.empty() && options.encoded.size() == pages.size()) return options.encoded[p];
+  return encode_image(pages[p], options);
 }
 
 }  // namespace texdefrag

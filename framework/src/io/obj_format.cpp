@@ -40,8 +40,7 @@ WriteResult ObjFormat::write(const LoadedModel& in, const TexturedMesh& out_mesh
   }
   // Pages are encoded on the framework's threads (each page's file depends on its pixels only).
   parallel_for(pages.size(), [&](size_t p) {
-    write_image(image_paths[p], pages[p], page_options.format, page_options.jpeg_quality, page_options.jpeg_subsampling,
-                page_options.jpeg_coding);
+    write_page(image_paths[p], pages, p, page_options);
   });
   for (const std::string& path : image_paths) r.page_bytes += static_cast<size_t>(fs::file_size(path));
   ObjWriteOptions wo;

@@ -348,8 +348,7 @@ WriteResult OsgbFormat::write(const LoadedModel& in, const TexturedMesh& out_mes
   for (size_t p = 0; p < pages.size(); ++p) {
     const std::string file = stem + "_page" + std::to_string(p) + "." + ext;
     const std::string path = (fs::path(scratch.path) / file).string();
-    write_image(path, pages[p], page_options.format, page_options.jpeg_quality, page_options.jpeg_subsampling,
-                page_options.jpeg_coding);
+    write_page(path, pages, p, page_options);
     r.page_bytes += static_cast<size_t>(fs::file_size(path));
     std::error_code ec;
     if (fs::exists(file, ec))

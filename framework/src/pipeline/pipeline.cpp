@@ -525,7 +525,10 @@ void write_step(json& report, const PipelineConfig& config, const RunOptions& op
       node["jpeg_progressive"] = po.jpeg_coding.progressive;
       if (po.jpeg_quality_from_input) node["jpeg_quality_estimated"] = po.jpeg_standard_quality;
       if (fit.probes > 0)
-        node["jpeg_quality_fit"] = {{"probes", fit.probes}, {"bytes", fit.bytes}, {"within_input_bytes", fit.within_budget}};
+        node["jpeg_quality_fit"] = {{"probes", fit.probes},
+                                    {"sample_probes", fit.sample_probes},
+                                    {"bytes", fit.bytes},
+                                    {"within_input_bytes", fit.within_budget}};
     }
     node["file"] = wr.main_file;
     node["page_bytes"] = wr.page_bytes;
@@ -608,6 +611,10 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   // 695 MiB. Only here: every page given back is faulted in again when reused (CPU time).
   release_free_memory();
   const std::vector<Image> out_pages = resample_step(report, config, model, ctx, progress);
+  // note: the resampling's input pages and fit windows are free now; given back before the write
+  // step, whose page encoding (a progressive JPEG holds every coefficient of its page) is the
+  // run's peak on large models.
+  release_free_memory();
 
   double mp_out = 0;
   for (const auto& p : ctx.layout.pages) mp_out += static_cast<double>(p.width) * p.height / 1e6;

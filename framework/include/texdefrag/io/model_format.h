@@ -99,7 +99,18 @@ struct PageWriteOptions {
   /// The validated `output` section of the configuration, for format-specific keys (e.g. the glTF
   /// writer's output.draco); empty object when not given.
   json output_options = json::object();
+  /// The pages' encoded streams at exactly these settings, one per page, when something encoded
+  /// them already (fit_page_quality keeps its answer's); empty: the writer encodes the pages.
+  /// Whoever changes a setting above clears it.
+  std::vector<std::vector<uint8_t>> encoded;
 };
+
+/// Writes page `p` of `pages` to `path` as `options` say: its stream from options.encoded when
+/// present, else encoded by write_image. Throws ImageError naming `path` when writing fails.
+void write_page(const std::string& path, const std::vector<Image>& pages, size_t p, const PageWriteOptions& options);
+
+/// Page `p`'s encoded stream: options.encoded[p] when present (copied), else encoded now.
+std::vector<uint8_t> encode_page(const std::vector<Image>& pages, size_t p, const PageWriteOptions& options);
 
 /// What a writer wrote.
 struct WriteResult {
