@@ -174,9 +174,18 @@ def main():
     todo = [t for t in plan["tasks"] if not a.only or re.search(a.only, t["id"])]
     if not todo:
         sys.exit("page_format_compare: no task")
-    jobs = [(t, n, s) for t in todo for n, s in variants.items()]
+    # Tasks writing into one output folder (the files of one OSGB tile) run one after the other: a
+    # texdefrag run locks its output folder, so two at once there would fail.
+    groups = {}
+    for t in todo:
+        for n, s in variants.items():
+            groups.setdefault((n, t.get("output_dir", ".")), []).append((t, n, s))
+
+    def run_group(jobs):
+        return [run_task(a, plan, t, n, s, a.work) for t, n, s in jobs]
+
     with concurrent.futures.ThreadPoolExecutor(a.jobs) as pool:
-        results = list(pool.map(lambda j: run_task(a, plan, j[0], j[1], j[2], a.work), jobs))
+        results = [r for rs in pool.map(run_group, list(groups.values())) for r in rs]
     rows = [r for rs, _ in results for r in rs]
     models = [m for _, m in results]
     for x in rows + models:
