@@ -2,6 +2,7 @@
 // in-memory images, with texel values computed by hand from the conventions of docs/texture.md:
 // texel (i, j) of a W x H page has its centre at (i + 0.5, H - j - 0.5) in texel space (y up).
 #include "texdefrag/texture/resample.h"
+#include "texdefrag/io/jpeg_quality.h"
 #include "texdefrag/util/parallel.h"
 
 #include <gtest/gtest.h>
@@ -458,6 +459,59 @@ TEST(TextureResample, PullPushKeepsCoveredTexelsAndFillsTheRest) {
   for (int y = 0; y < 20; ++y)
     for (int x = 0; x < 20; ++x)
       for (int ch = 0; ch < 3; ++ch) ASSERT_EQ(kp[0].at(x, y)[ch], 90 + ch) << x << "," << y;
+}
+
+TEST(TextureResample, FillBlocksFlattensEmptyBlocksAndSmoothsPartlyWrittenOnes) {
+  // A slanted chart on a 32x32 page (4 x 4 JPEG blocks of 8 x 8) over a busy input.
+  Scene s;
+  const int in = s.add_input_page(pattern(32, 32));
+  const int c = s.add_chart(in, s.add_output_page(32, 32));
+  s.add_face(c, {Vec2(6, 5), Vec2(25, 9), Vec2(12, 27)}, {Vec2(7.3, 6.1), Vec2(24.2, 9.7), Vec2(12.5, 26.4)});
+  ResampleOptions none = opts(Filter::Bilinear, GutterFill::None);
+  const std::array<uint8_t, 4> bg{255, 0, 255, 255};
+  std::copy(bg.begin(), bg.end(), none.background);
+  const auto mask = covered_mask(s.run(none)[0], bg);
+  ResampleOptions off = opts(Filter::Bilinear, GutterFill::PullPush);
+  off.fill_blocks = false;
+  ResampleOptions on = off;
+  on.fill_blocks = true;
+  const Image a = s.run(off)[0], b = s.run(on)[0];
+  int empty_blocks = 0, partial_blocks = 0, flat_without = 0;
+  for (int by = 0; by < 32; by += 8)
+    for (int bx = 0; bx < 32; bx += 8) {
+      int lo[3] = {255, 255, 255}, hi[3] = {0, 0, 0}, n = 0;
+      for (int y = by; y < by + 8; ++y)
+        for (int x = bx; x < bx + 8; ++x) {
+          if (!mask[static_cast<size_t>(y * 32 + x)]) continue;
+          ++n;
+          EXPECT_TRUE(same_texel(a, x, y, b, x, y)) << "written texel " << x << "," << y;
+          for (int ch = 0; ch < 3; ++ch) {
+            lo[ch] = std::min<int>(lo[ch], b.at(x, y)[ch]);
+            hi[ch] = std::max<int>(hi[ch], b.at(x, y)[ch]);
+          }
+        }
+      bool flat_a = true;
+      for (int y = by; y < by + 8; ++y)
+        for (int x = bx; x < bx + 8; ++x) {
+          if (mask[static_cast<size_t>(y * 32 + x)]) continue;
+          flat_a = flat_a && same_texel(a, x, y, a, bx, by);
+          if (n == 0) {
+            EXPECT_TRUE(same_texel(b, x, y, b, bx, by)) << "empty block texel " << x << "," << y;
+          }
+          for (int ch = 0; n > 0 && ch < 3; ++ch) {  // harmonic: within the written texels' range
+            EXPECT_GE(b.at(x, y)[ch], lo[ch]) << x << "," << y;
+            EXPECT_LE(b.at(x, y)[ch], hi[ch]) << x << "," << y;
+          }
+        }
+      empty_blocks += n == 0;
+      partial_blocks += n > 0 && n < 64;
+      flat_without += n == 0 && flat_a;
+    }
+  EXPECT_GE(empty_blocks, 3);
+  EXPECT_GE(partial_blocks, 6);
+  EXPECT_EQ(flat_without, 0);  // pull-push alone leaves gradients in the empty blocks
+  // What it is for: the page costs fewer JPEG bytes.
+  EXPECT_LT(encode_jpeg(b, 90, JpegSubsampling::S444, "on").size(), encode_jpeg(a, 90, JpegSubsampling::S444, "off").size());
 }
 
 TEST(TextureResample, DilateRespectsWidth) {

@@ -56,7 +56,9 @@ const StageInfo& texture_stage_info() {
                 "Texels of resampled faces: the input at their centre, or least-squares fitted so the page read bilinearly matches the input read bilinearly"),
        opt_int("fit_iterations", 4, "Conjugate-gradient iterations of fit 'least_squares'").range(1, 200),
        opt_enum("fill", "pull_push", {"none", "dilate", "pull_push"}, "How texels around charts are filled for MIP-mapping"),
-       opt_int("dilate_width", 8, "Width of the dilation when fill is 'dilate'").range(0, 256).unit("texels")});
+       opt_int("dilate_width", 8, "Width of the dilation when fill is 'dilate'").range(0, 256).unit("texels"),
+       opt_bool("fill_blocks", true,
+                "After fill pull_push, 8x8 blocks no chart touches take their mean and partly covered blocks a smooth continuation of their texels (smaller JPEG pages)")});
   return info;
 }
 

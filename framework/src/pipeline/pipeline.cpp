@@ -465,6 +465,7 @@ ResampleOptions resample_options(const Options& t) {
   ro.filter = t.get_enum<Filter>("filter", {{"nearest", Filter::Nearest}, {"bilinear", Filter::Bilinear}, {"bicubic", Filter::Bicubic}});
   ro.fill = t.get_enum<GutterFill>("fill", {{"none", GutterFill::None}, {"dilate", GutterFill::Dilate}, {"pull_push", GutterFill::PullPush}});
   ro.dilate_width = static_cast<int>(t.get_int("dilate_width"));
+  ro.fill_blocks = t.get_bool("fill_blocks");
   ro.fit = t.get_enum<TexelFit>("fit", {{"sample", TexelFit::Sample}, {"least_squares", TexelFit::LeastSquares}});
   ro.fit_iterations = static_cast<int>(t.get_int("fit_iterations"));
   return ro;

@@ -41,6 +41,12 @@ struct ResampleOptions {
   /// Texels of dilation around charts for GutterFill::Dilate (pull-push fills the whole page);
   /// >= 0 (negative throws StageError).
   int dilate_width = 8;
+  /// After GutterFill::PullPush (the others keep their background), per 8 x 8 block of the page (JPEG's blocks, from
+  /// the top-left corner): a block no triangle wrote takes its mean colour, and in a block partly
+  /// written the unwritten texels take the harmonic (smoothest) continuation of the written ones
+  /// inside the block. Written texels never change; it saves the bytes a JPEG page spends on
+  /// gutter and empty space (docs/texture.md "Gutter fill").
+  bool fill_blocks = true;
   /// RGBA of texels no fill reaches (fill None, beyond the dilation, or a page with no chart).
   /// Grey outputs use [0] (and [3] as alpha), RGB outputs [0..2].
   uint8_t background[4] = {0, 0, 0, 255};
