@@ -293,6 +293,7 @@ int highest_fitting(const std::vector<size_t>& bytes, int lo, size_t budget) {
 // Pages of 2048 rows or more are predicted on a sample, then measured whole: the answer is the
 // same as a search over whole pages would give (bytes here grow with quality), with 1 and 2
 // threads alike, and the whole pages are encoded at a handful of qualities, not a bisection's 11.
+// (This page's XOR pattern varies band to band, so its sample predicts 0-3 qualities low.)
 TEST(JpegQualityFit, TallPagesArePredictedOnSamplesAndMeasuredWhole) {
   const Image tall = noisy(40, 2200, 3), small = noisy(33, 70, 9);
   const std::vector<const Image*> pages = {&tall, &small};
@@ -309,7 +310,7 @@ TEST(JpegQualityFit, TallPagesArePredictedOnSamplesAndMeasuredWhole) {
     EXPECT_EQ(one.bytes, bytes[static_cast<size_t>(one.quality)]) << q;
     EXPECT_TRUE(one.within_budget) << q;
     EXPECT_GT(one.sample_probes, 0) << q;
-    EXPECT_LE(one.probes, 4) << q;
+    EXPECT_LE(one.probes, 6) << q;  // a whole-page search from the ends encodes 8-11 qualities here
     EXPECT_EQ(one.quality, two.quality) << q;
     EXPECT_EQ(one.probes, two.probes) << q;
     EXPECT_EQ(one.sample_probes, two.sample_probes) << q;
@@ -339,13 +340,13 @@ TEST(JpegQualityFit, WritePageWritesTheKeptStreamOrEncodes) {
   EXPECT_THROW(write_page((dir / "c.jpg").string(), pages, 0, po), ImageError);
 }
 
-// A sample can mislead: here every sampled band (16 rows of every 128) is flat and the rest is
+// A sample can mislead: here every sampled band (jpeg_fit_sample_bands) is flat and the rest is
 // noise, so the sample predicts far too few bytes. The search from the prediction still steps
 // down to the measured answer; a floor that does not fit is kept and reported as over.
 TEST(JpegQualityFit, AMisleadingSampleDoesNotChangeTheAnswer) {
   Image page = noisy(32, 2048, 5);
-  for (int y = 0; y < page.height; ++y)
-    if (y % 128 < 16)
+  for (const auto& [y0, rows] : jpeg_fit_sample_bands(page.height))
+    for (int y = y0; y < y0 + rows; ++y)
       for (int x = 0; x < page.width; ++x)
         for (int c = 0; c < page.channels; ++c) page.at(x, y)[c] = 128;
   const std::vector<const Image*> pages = {&page};

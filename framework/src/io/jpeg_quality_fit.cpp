@@ -66,12 +66,18 @@ std::vector<std::vector<std::vector<uint8_t>>> encode_all(const std::vector<cons
   return out;
 }
 
-/// Totals of the pages' bytes, each page's weighted (a sample's bytes scaled to its page's rows).
+/// Totals of the pages' bytes at each quality. A sampled page's bytes are scaled to its page's rows
+/// (`weights`), all but its fixed part: headers, tables and scan markers, measured as the bytes of a
+/// 16 x 16 flat image at the same quality (`fixed`, one per quality; none when empty). Without that,
+/// a narrow page's sample would count its header 8 times.
 std::vector<double> weighted_totals(const std::vector<std::vector<std::vector<uint8_t>>>& streams,
-                                    const std::vector<double>& weights) {
+                                    const std::vector<double>& weights, const std::vector<double>& fixed = {}) {
   std::vector<double> totals(streams.size(), 0.0);
-  for (size_t q = 0; q < streams.size(); ++q)
-    for (size_t p = 0; p < weights.size(); ++p) totals[q] += weights[p] * static_cast<double>(streams[q][p].size());
+  for (size_t q = 0; q < streams.size(); ++q) {
+    const double f = fixed.empty() ? 0.0 : fixed[q];
+    for (size_t p = 0; p < weights.size(); ++p)
+      totals[q] += f + weights[p] * std::max(0.0, static_cast<double>(streams[q][p].size()) - f);
+  }
   return totals;
 }
 
@@ -108,14 +114,31 @@ class WholePages {
   std::vector<std::vector<uint8_t>> kept_;
 };
 
-/// Every kSampleEvery-th band of kSampleBand rows of `page`, stacked (the last band may be short).
+}  // namespace
+
+std::vector<std::pair<int, int>> jpeg_fit_sample_bands(int height) {
+  std::vector<std::pair<int, int>> bands;
+  const int stratum = kSampleBand * kSampleEvery;
+  for (int k = 0; k * stratum < height; ++k) {
+    uint64_t h = static_cast<uint64_t>(k) + 0x9E3779B97F4A7C15ull;  // splitmix64's finaliser
+    h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
+    h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
+    h ^= h >> 31;
+    const int y0 = std::min(k * stratum + kSampleBand * static_cast<int>(h % kSampleEvery), height - 1);
+    bands.emplace_back(y0, std::min(kSampleBand, height - y0));
+  }
+  return bands;
+}
+
+namespace {
+
+/// The bands of jpeg_fit_sample_bands(page.height), stacked into one image.
 Image sample_bands(const Image& page) {
   Image s;
   s.width = page.width;
   s.channels = page.channels;
   const size_t row = static_cast<size_t>(page.width) * static_cast<size_t>(page.channels);
-  for (int y0 = 0; y0 < page.height; y0 += kSampleBand * kSampleEvery) {
-    const int rows = std::min(kSampleBand, page.height - y0);
+  for (const auto& [y0, rows] : jpeg_fit_sample_bands(page.height)) {
     s.pixels.insert(s.pixels.end(), page.pixels.begin() + static_cast<std::ptrdiff_t>(row * static_cast<size_t>(y0)),
                     page.pixels.begin() + static_cast<std::ptrdiff_t>(row * static_cast<size_t>(y0 + rows)));
     s.height += rows;
@@ -179,7 +202,7 @@ JpegQualityFit search_from(const Measure& measure, int start, int min_quality, i
   int probes = 2;
   if (b[0] <= budget && b[1] > budget) return answer(start, static_cast<size_t>(b[0]), probes, true);
   if (b[0] <= budget) {  // start + 1 fits too: step up
-    int lo = start + 1, step = 2;
+    int lo = start + 1, step = 1;
     double lo_bytes = b[1];
     while (lo < max_quality) {
       const int q = std::min(max_quality, lo + step);
@@ -238,8 +261,15 @@ JpegQualityFit fit_jpeg_quality(const std::vector<const Image*>& pages, int min_
       sampled.push_back(&samples.back());
       weights.push_back(static_cast<double>(p->height) / static_cast<double>(samples.back().height));
     }
+    Image flat;
+    flat.width = flat.height = 16;
+    flat.channels = pages.front()->channels;
+    flat.pixels.assign(16 * 16 * static_cast<size_t>(flat.channels), 128);
     const Measure predicted = [&](const std::vector<int>& q) {
-      return weighted_totals(encode_all(sampled, q, subsampling, coding), weights);
+      std::vector<double> fixed;
+      for (const auto& streams : encode_all({&flat}, q, subsampling, coding))
+        fixed.push_back(static_cast<double>(streams.front().size()));
+      return weighted_totals(encode_all(sampled, q, subsampling, coding), weights, fixed);
     };
     const JpegQualityFit guess = search_from_ends(predicted, min_quality, max_quality, cap);
     fit = search_from(full, guess.quality, min_quality, max_quality, cap);

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "texdefrag/io/image.h"
@@ -69,8 +70,9 @@ struct JpegQualityFit {
 /// min is taken, within_budget false: the caller's floor is never lowered); then each round encodes
 /// up to 3 qualities evenly inside the open interval (fitting, over) and keeps the sub-interval
 /// between the highest fitting and the lowest over, until they are adjacent.
-/// Pages of 2048 rows or more are first searched that way on a sample (one band of 16 rows in
-/// every 128, its bytes scaled by the rows' share; smaller pages whole) to predict the quality q;
+/// Pages of 2048 rows or more are first searched that way on a sample (jpeg_fit_sample_bands: 1/8
+/// of the rows; its bytes but the fixed part, i.e. those of a 16 x 16 flat image, scaled by the
+/// rows' share; smaller pages whole) to predict the quality q;
 /// then whole pages are encoded at q and q + 1 (the usual answer: q fits, q + 1 does not), with
 /// steps doubling away from them until fitting and over are bracketed, then narrowed as above. A
 /// 34 MP page took 11 whole encodes before, 2-3 (plus about 1.4 in samples) now.
@@ -80,6 +82,12 @@ struct JpegQualityFit {
 /// within_budget => bytes <= budget; quality >= min_quality. JPEG bytes grow with quality almost
 /// always but not by theorem: where they do not, the search still returns a quality whose measured
 /// bytes fit, and the next quality it tried above it did not fit.
+/// The rows fit_jpeg_quality samples on a page of `height` rows to predict its bytes, as (first
+/// row, row count) bands: one band of 16 rows from every stratum of 128, which band drawn by a fixed
+/// hash of the stratum's index (stratified random sampling: content that repeats with the strata,
+/// such as shelves of charts or pages in multiples of 128 rows, is not sampled at one phase only).
+std::vector<std::pair<int, int>> jpeg_fit_sample_bands(int height);
+
 JpegQualityFit fit_jpeg_quality(const std::vector<const Image*>& pages, int min_quality, int max_quality,
                                 JpegSubsampling subsampling, size_t budget, JpegCoding coding = {});
 
