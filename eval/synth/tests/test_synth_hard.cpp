@@ -278,25 +278,31 @@ size_t same_direction_edges(const TexturedMesh& m) {
 }
 }  // namespace
 
+// Building `index` of the hard data set `--count count --seed seed --min-faces lo --max-faces hi`,
+// without pages.
+static SynthModel hard_building(size_t count, uint64_t seed, size_t lo, size_t hi, size_t index) {
+  DatasetOptions d;
+  d.count = count;
+  d.seed = seed;
+  d.min_faces = lo;
+  d.max_faces = hi;
+  d.render_pages = false;
+  EXPECT_TRUE(apply_preset("hard", d.base));
+  d.preset = "hard";
+  const std::vector<SynthOptions> plan = dataset_plan(d);
+  EXPECT_EQ(plan.size(), count);
+  SynthOptions o = plan.at(index);
+  o.render_pages = false;
+  return generate(o);
+}
+
 // The hard data set `--count 4 --seed 160 --min-faces 15000 --max-faces 40000` drew two chimneys on
 // one roof slope of building b0002 (27.5k faces) that overlap: the roof's holes overlapped, the
 // even-odd inside test put roof triangles back over their intersection, and 7 of their edges ran
 // the same way round as the chimney walls' (found by the merger's mirror_orientation work,
 // docs/mergers.md step 3). Chimneys that would overlap an earlier one are not built now.
 TEST(SynthHard, OverlappingChimneysAreNotBuiltSoTheWindingIsConsistent) {
-  DatasetOptions d;
-  d.count = 4;
-  d.seed = 160;
-  d.min_faces = 15000;
-  d.max_faces = 40000;
-  d.render_pages = false;
-  ASSERT_TRUE(apply_preset("hard", d.base));
-  d.preset = "hard";
-  const std::vector<SynthOptions> plan = dataset_plan(d);
-  ASSERT_EQ(plan.size(), 4u);
-  SynthOptions o = plan[2];
-  o.render_pages = false;
-  const SynthModel m = generate(o);
+  const SynthModel m = hard_building(4, 160, 15000, 40000, 2);
   EXPECT_GT(m.mesh.faces.size(), 20000u);
   EXPECT_EQ(same_direction_edges(m.mesh), 0u);
 }
@@ -308,19 +314,7 @@ TEST(SynthHard, OverlappingChimneysAreNotBuiltSoTheWindingIsConsistent) {
 // every boundary segment its polygon's triangulation lost (in every polygon sharing it) and meshes
 // again until all are kept (a conforming triangulation).
 TEST(SynthHard, ThinBalconySlabsKeepTheirWallsBoundarySoTheWindingIsConsistent) {
-  DatasetOptions d;
-  d.count = 8;
-  d.seed = 11;
-  d.min_faces = 8000;
-  d.max_faces = 30000;
-  d.render_pages = false;
-  ASSERT_TRUE(apply_preset("hard", d.base));
-  d.preset = "hard";
-  const std::vector<SynthOptions> plan = dataset_plan(d);
-  ASSERT_EQ(plan.size(), 8u);
-  SynthOptions o = plan[3];
-  o.render_pages = false;
-  const SynthModel m = generate(o);
+  const SynthModel m = hard_building(8, 11, 8000, 30000, 3);
   EXPECT_GT(m.mesh.faces.size(), 8000u);
   EXPECT_EQ(same_direction_edges(m.mesh), 0u);
 }

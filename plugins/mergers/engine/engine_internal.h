@@ -373,6 +373,11 @@ class Engine {
   void run_lanes(std::vector<Lane>& lanes, const Progress& progress, double span);
   void join_lanes(std::vector<Lane>& lanes);
   /// Rebuilds every chart's seam adjacency from the seam edges (after lanes left some stale).
+  /// Calls fn(edge index, edge, face x, face y, chart of x, chart of y) for every manifold edge
+  /// (two faces, two distinct vertices) between two textured, non-degenerate faces, in edge order:
+  /// the edges a seam can lie on, whether its charts differ or not.
+  template <class Fn>
+  void for_each_textured_edge(Fn&& fn) const;
   void rebuild_adjacency();
   void start_second_pass(double local_bound);
   /// Fills rep_.seam_left: the seams still cut when the engine stops, by why they are (docs/mergers.md

@@ -178,21 +178,29 @@ void Engine::setup_charts() {
   }
 }
 
-void Engine::rebuild_adjacency() {
-  for (ChartInfo& ch : charts_) ch.adj.clear();
-  // Seam edges: manifold, two textured non-degenerate faces in different charts.
+template <class Fn>
+void Engine::for_each_textured_edge(Fn&& fn) const {
   for (size_t ei = 0; ei < topo_.edges.size(); ++ei) {
     const Edge& e = topo_.edges[ei];
     if (e.num_faces != 2 || e.a == e.b) continue;
     const EdgeIncidence& x = topo_.edge_faces[static_cast<size_t>(e.first_incidence)];
     const EdgeIncidence& y = topo_.edge_faces[static_cast<size_t>(e.first_incidence + 1)];
     const int ca = chart(x.face), cb = chart(y.face);
-    if (ca < 0 || cb < 0 || ca == cb) continue;
+    if (ca < 0 || cb < 0) continue;
     if (topo_.face_degenerate[static_cast<size_t>(x.face)] || topo_.face_degenerate[static_cast<size_t>(y.face)])
       continue;
+    fn(ei, e, x.face, y.face, ca, cb);
+  }
+}
+
+void Engine::rebuild_adjacency() {
+  for (ChartInfo& ch : charts_) ch.adj.clear();
+  // Seam edges: manifold, two textured non-degenerate faces in different charts.
+  for_each_textured_edge([&](size_t ei, const Edge&, int, int, int ca, int cb) {
+    if (ca == cb) return;
     C(ca).adj[cb].push_back(static_cast<int>(ei));
     C(cb).adj[ca].push_back(static_cast<int>(ei));
-  }
+  });
 }
 
 void Engine::setup_seams_and_grids() {
@@ -665,20 +673,12 @@ void Engine::start_second_pass(double local_bound) {
 
 void Engine::measure_seams_left() {
   std::set<long long> pairs;
-  for (size_t ei = 0; ei < topo_.edges.size(); ++ei) {
-    const Edge& e = topo_.edges[ei];
-    if (e.num_faces != 2 || e.a == e.b) continue;
-    const EdgeIncidence& x = topo_.edge_faces[static_cast<size_t>(e.first_incidence)];
-    const EdgeIncidence& y = topo_.edge_faces[static_cast<size_t>(e.first_incidence + 1)];
-    const int ca = chart(x.face), cb = chart(y.face);
-    if (ca < 0 || cb < 0) continue;
-    if (topo_.face_degenerate[static_cast<size_t>(x.face)] || topo_.face_degenerate[static_cast<size_t>(y.face)])
-      continue;
+  for_each_textured_edge([&](size_t, const Edge& e, int fx, int fy, int ca, int cb) {
     std::string why;
     if (ca == cb) {
-      const int w0 = wedge(x.face, corner_of(x.face, e.a)), w1 = wedge(x.face, corner_of(x.face, e.b));
-      const int g0 = wedge(y.face, corner_of(y.face, e.a)), g1 = wedge(y.face, corner_of(y.face, e.b));
-      if (w0 == g0 && w1 == g1) continue;  // not a seam
+      const int w0 = wedge(fx, corner_of(fx, e.a)), w1 = wedge(fx, corner_of(fx, e.b));
+      const int g0 = wedge(fy, corner_of(fy, e.a)), g1 = wedge(fy, corner_of(fy, e.b));
+      if (w0 == g0 && w1 == g1) return;  // not a seam
       why = "cut";
     } else if (!candidate(ca, cb)) {
       why = "not_candidate";
@@ -693,7 +693,7 @@ void Engine::measure_seams_left() {
                     mesh_.positions[static_cast<size_t>(topo_.position_of_vertex[static_cast<size_t>(e.b)])]).norm();
     if (pairs.insert(static_cast<long long>(std::min(ca, cb)) << 32 | static_cast<long long>(std::max(ca, cb))).second)
       ++s.pairs;
-  }
+  });
 }
 
 void Engine::drain(Lane& L, const Progress& progress, double base, double span) {
