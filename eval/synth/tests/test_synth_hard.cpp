@@ -96,6 +96,8 @@ TEST(SynthHard, MirroredFractionMeasuredEqualsRequested) {
     std::printf("mirror_fraction %.2f: measured %.4f (%zu of %zu faces)\n", want, measured, reversed, faces);
     // whole charts are mirrored: the share misses the target by at most half the largest chart
     EXPECT_NEAR(measured, want, 0.03);
+    // the ground truth says the same (it marks the faces of the charts it mirrored)
+    EXPECT_NEAR(static_cast<double>(truth) / static_cast<double>(faces), want, 0.03);
     // a face whose projection folds (seen nearly edge-on, or from behind by its fallback camera)
     // is reversed without being mirrored, or the other way round: about 1% of the faces
     EXPECT_LE(disagree, faces / 50) << disagree << " faces";
