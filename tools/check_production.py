@@ -45,6 +45,11 @@ def level_of(rel):
     return f"lod{m.group(1)}" if m else "root"
 
 
+def level_key(s):
+    """Sort key of level names: root, then L14.. or lod0.. by number, then "all" last."""
+    return (s == "all", s != "root", int(re.sub(r"\D", "", s) or -1))
+
+
 def pairs(inp, out):
     found = []
     for root, dirs, files in os.walk(inp):
@@ -120,7 +125,7 @@ def fmt_int(v):
 
 
 def table(rows, reports):
-    levels = sorted({r["level"] for r in rows}, key=lambda s: (s != "root", int(re.sub(r"\D", "", s) or -1)))
+    levels = sorted({r["level"] for r in rows}, key=level_key)
     lines = ["| level | files | faces (lost) | positions exact | charts in -> out | MP in -> out | page bytes in -> out "
              "| models over input bytes | texture PSNR min / median | texels copied min | osgconv / validator |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]

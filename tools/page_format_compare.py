@@ -30,20 +30,9 @@ import subprocess
 import sys
 import tempfile
 
+from check_production import level_key, level_of  # same folder: one level naming for both tools
+
 MODEL_EXT = (".osgb", ".glb", ".gltf", ".obj")
-
-
-def level_of(rel):
-    name = os.path.basename(rel)
-    m = re.search(r"_L(\d+)_", name)
-    if m:
-        return f"L{int(m.group(1))}"
-    m = re.search(r"lod(\d+)", name)
-    return f"lod{m.group(1)}" if m else "root"
-
-
-def level_key(s):
-    return (s == "all", s != "root", int(re.sub(r"\D", "", s) or -1))
 
 
 def run_timed(cmd):
