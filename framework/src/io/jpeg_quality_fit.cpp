@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <functional>
-#include <memory>
 #include <cstdio>
 #include <cstdlib>
 
@@ -237,8 +236,8 @@ JpegQualityFit fit_jpeg_quality(const std::vector<const Image*>& pages, int min_
     throw ImageError("fit_jpeg_quality: qualities " + std::to_string(min_quality) + ".." + std::to_string(max_quality) +
                      " are not 1 <= min <= max <= 100");
   const double cap = static_cast<double>(budget);
-  auto whole = std::make_shared<WholePages>(pages, subsampling, coding, cap);
-  const Measure full = [whole](const std::vector<int>& q) { return (*whole)(q); };
+  WholePages whole(pages, subsampling, coding, cap);
+  const Measure full = std::ref(whole);
   bool tall = false;
   for (const Image* p : pages) tall = tall || p->height >= kMinSampledRows;
   JpegQualityFit fit;
@@ -275,7 +274,7 @@ JpegQualityFit fit_jpeg_quality(const std::vector<const Image*>& pages, int min_
     fit = search_from(full, guess.quality, min_quality, max_quality, cap);
     fit.sample_probes = guess.probes;
   }
-  if (fit.within_budget) fit.streams = whole->take(fit.quality);
+  if (fit.within_budget) fit.streams = whole.take(fit.quality);
   return fit;
 }
 

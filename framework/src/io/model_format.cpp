@@ -3,16 +3,15 @@
 
 #include "texdefrag/io/jpeg_quality.h"
 #include "texdefrag/io/gltf_format.h"
+#include "texdefrag/io/obj.h"
 #include "texdefrag/io/obj_format.h"
 #include "texdefrag/io/osgb.h"
 
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
-#include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <string_view>
 
 namespace fs = std::filesystem;
 
@@ -167,13 +166,8 @@ void write_page(const std::string& path, const std::vector<Image>& pages, size_t
     throw ImageError(path + ": " + std::to_string(options.encoded.size()) + " encoded pages for " +
                      std::to_string(pages.size()) + " pages");
   const std::vector<uint8_t>& bytes = options.encoded[p];
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) throw ImageError(path + ": cannot create the page: " + std::strerror(errno));
-  const bool wrote = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
-  const int write_errno = errno;
-  if (std::fclose(f) != 0 || !wrote)
-    throw ImageError(path + ": cannot write the page (" + std::to_string(bytes.size()) +
-                     " bytes): " + std::strerror(wrote ? errno : write_errno));
+  // atomic as write_image's own writes are (temporary file beside it, then rename)
+  write_file_atomic(path, {std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size())});
 }
 
 std::vector<uint8_t> encode_page(const std::vector<Image>& pages, size_t p, const PageWriteOptions& options) {

@@ -106,7 +106,9 @@ struct PageWriteOptions {
 };
 
 /// Writes page `p` of `pages` to `path` as `options` say: its stream from options.encoded when
-/// present, else encoded by write_image. Throws ImageError naming `path` when writing fails.
+/// present (written atomically by write_file_atomic, io/obj.h), else encoded by write_image.
+/// Throws an error starting with `path` when writing fails (ImageError, or ObjError from
+/// write_file_atomic), and ImageError when options.encoded does not hold one stream per page.
 void write_page(const std::string& path, const std::vector<Image>& pages, size_t p, const PageWriteOptions& options);
 
 /// Page `p`'s encoded stream: options.encoded[p] when present (copied), else encoded now.
