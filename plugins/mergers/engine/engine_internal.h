@@ -19,6 +19,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <memory>
 #include <queue>
 #include <string>
 #include <unordered_map>
@@ -113,6 +114,12 @@ struct Entry {
   bool operator<(const Entry& o) const { return score < o.score; }
 };
 
+/// The merge queue: a std::priority_queue (so the same pops for the same pushes) whose entries the
+/// second pass's look-ahead may read in heap order without popping them (see Engine::speculate).
+struct EntryQueue : std::priority_queue<Entry> {
+  const std::vector<Entry>& entries() const { return c; }
+};
+
 /// What the queue remembers of one chart pair.
 struct PairState {
   int attempts = 0;
@@ -126,11 +133,12 @@ struct PairState {
 /// charts, faces and wedges of its own region, so region lanes run on threads side by side.
 struct Lane {
   int region = -1;  ///< the region whose pairs this lane merges (-1: the main lane)
-  std::priority_queue<Entry> queue;
+  EntryQueue queue;
   std::unordered_map<long long, PairState> pairs;
-  PairState& pair_state(int a, int b) {
-    return pairs[static_cast<long long>(std::min(a, b)) << 32 | static_cast<long long>(std::max(a, b))];
+  static long long pair_key(int a, int b) {
+    return static_cast<long long>(std::min(a, b)) << 32 | static_cast<long long>(std::max(a, b));
   }
+  PairState& pair_state(int a, int b) { return pairs[pair_key(a, b)]; }
   MergeReport rep;        ///< this lane's counters (attempts, acceptances, rejections, seconds)
   double free_total = 0;  ///< sum of free-region sizes (for mean_free_vertices)
   size_t free_count = 0;
@@ -156,6 +164,9 @@ struct Lane {
   std::vector<Vec2> score_p, score_q;
 };
 
+/// Adds the move counters of `from` (attempts, acceptances, rejections, seconds) to `to`.
+void add_counters(MergeReport& to, const MergeReport& from);
+
 /// One merge attempt: what each step of try_merge hands to the next.
 struct Move {
   Lane* lane = nullptr;                    ///< the lane running it (its stamps and rollback log)
@@ -172,6 +183,7 @@ struct Move {
   std::vector<int> changed;                ///< faces whose shape changed beyond the rigid motion
   std::vector<double> new_err;             ///< checks: weighted ARAP error of each changed face
   double new_sum = 0;                      ///< checks: the global weighted error sum after the move
+  bool budget_checked = false;             ///< checks: the local bound held and new_sum was checked against the budget
   std::vector<int> dead;                   ///< checks: live boundary edges the weld made interior
   std::vector<int> moved_ids;              ///< checks: live boundary edges with a moved wedge
   double turn = 0;                         ///< check_orientation: the merged chart's ChartInfo::turn
@@ -222,6 +234,17 @@ class Engine {
   /// the fan rings with fan_targets), solve, the acceptance checks (timed into check_seconds), then
   /// commit, or rollback with `reason` set. Returns whether the move was committed.
   bool settle_welded(Move& mv, std::string& reason, Lane& L);
+  /// try_merge without the commit: returns true with the move left in the atlas (for commit(mv) or
+  /// rollback(L)), or false with `reason` set and the atlas restored.
+  bool evaluate_merge(int a, int b, std::string& reason, Lane& L, Move& mv);
+  /// settle_welded without the commit (same contract as evaluate_merge).
+  bool evaluate_welded(Move& mv, std::string& reason, Lane& L);
+  /// Whether raising lane L's error sum to new_sum breaks the budget: the global bound when
+  /// L.global_check, else L.err_max (check_distortion's test; the second pass's speculation repeats it
+  /// when it settles a move evaluated ahead).
+  bool over_budget(const Lane& L, double new_sum) const {
+    return L.global_check ? weight_sum_ > 0 && new_sum / weight_sum_ > opt_.global_bound : new_sum > L.err_max;
+  }
   /// Step 3: wedges within alpha * dmax of the welded ones (Dijkstra over UV lengths), nearest first.
   void free_region(Move& mv);
   /// Step 4: solves the local problem on the free wedges and writes the result into the atlas;
@@ -380,6 +403,43 @@ class Engine {
   void for_each_textured_edge(Fn&& fn) const;
   void rebuild_adjacency();
   void start_second_pass(double local_bound);
+
+  // ---- the second pass side by side (docs/mergers.md, "Parallel second pass"; engine_speculate.cpp)
+  /// A queue entry evaluated ahead of its turn on a lane of its own, on the atlas as it was then
+  /// (with other entries' evaluations of disjoint charts in it).
+  struct Speculation {
+    Entry e{};
+    Lane lane;           ///< its stamps, rollback log and counters
+    Move mv;             ///< the evaluated move (mv.new_sum: the move's change of the error sum)
+    std::string reason;  ///< the first check that refused it (empty: it passed every check it ran)
+    bool live = false;   ///< its result stands: its charts are still at versions e.va, e.vb
+    bool in_atlas = false;  ///< it passed: its move is in the atlas until settled or dropped
+  };
+  /// What try_merge(e.a, e.b, reason, L) does, for an entry drain popped: with speculation on (the
+  /// second pass, spec_width_ > 1), a live speculation of e is settled, else e is evaluated in a batch
+  /// with up to spec_width_ - 1 entries further down the queue (speculations), side by side.
+  bool merge_entry(const Entry& e, std::string& reason, Lane& L);
+  void start_speculation(Lane& L);
+  void stop_speculation(Lane& L);
+  /// Evaluates the batch's entries side by side, each on its slot's lane (batch[0]: the entry drain
+  /// popped, on the calling thread).
+  void run_batch(std::vector<Speculation*>& batch);
+  /// Fills batch: a slot for e, then slots for entries further down the queue (see the file's note).
+  void pick_lookahead(const Entry& e, std::vector<Speculation*>& batch);
+  Speculation* free_slot();
+  bool settle(Speculation& s, std::string& reason, Lane& L);
+  void drop(Speculation& s);
+  /// Drops the speculations of charts a or b: every one, or (in_atlas_only) those whose move is in
+  /// the atlas (before drain scores a pair of them, which reads their UVs).
+  void drop_speculations_of(int a, int b, bool in_atlas_only);
+  /// Whether chart x is y or a neighbour of it.
+  bool near_chart(int x, int y) const {
+    return x == y || charts_[static_cast<size_t>(x)].adj.count(y) != 0;
+  }
+  std::vector<std::unique_ptr<Speculation>> spec_;  ///< slots (live or free)
+  int spec_width_ = 1;       ///< entries evaluated per batch
+  bool speculating_ = false; ///< drain runs the main lane with speculation
+  int stamp_high_ = 0;       ///< the highest epoch or seen stamp any lane used so far
   /// Fills rep_.seam_left: the seams still cut when the engine stops, by why they are (docs/mergers.md
   /// step 9): each adjacent chart pair's 3D seam length under its last refusal reason.
   void measure_seams_left();

@@ -17,7 +17,14 @@ double seconds_since(Clock::time_point t) { return std::chrono::duration<double>
 }  // namespace
 
 bool Engine::try_merge(int a, int b, std::string& reason, Lane& L) {
-  Move mv = begin_move(a, b, L);
+  Move mv;
+  if (!evaluate_merge(a, b, reason, L, mv)) return false;
+  commit(mv);
+  return true;
+}
+
+bool Engine::evaluate_merge(int a, int b, std::string& reason, Lane& L, Move& mv) {
+  mv = begin_move(a, b, L);
   align(mv);
   if (const char* why = check_orientation(mv)) {
     reason = why;
@@ -25,10 +32,16 @@ bool Engine::try_merge(int a, int b, std::string& reason, Lane& L) {
     return false;
   }
   weld(mv);
-  return settle_welded(mv, reason, L);
+  return evaluate_welded(mv, reason, L);
 }
 
 bool Engine::settle_welded(Move& mv, std::string& reason, Lane& L) {
+  if (!evaluate_welded(mv, reason, L)) return false;
+  commit(mv);
+  return true;
+}
+
+bool Engine::evaluate_welded(Move& mv, std::string& reason, Lane& L) {
   if (seam_mostly_folded(mv)) {
     reason = "orientation";
     rollback(L);
@@ -45,7 +58,6 @@ bool Engine::settle_welded(Move& mv, std::string& reason, Lane& L) {
     rollback(L);
     return false;
   }
-  commit(mv);
   return true;
 }
 
@@ -507,9 +519,8 @@ const char* Engine::check_distortion(Move& mv) {
   }
   if (lw > 0 && lsum / lw > opt_.local_bound) return "local_distortion";
   mv.new_sum = L.err_sum + delta;
-  if (L.global_check ? weight_sum_ > 0 && mv.new_sum / weight_sum_ > opt_.global_bound : mv.new_sum > L.err_max)
-    return "global_distortion";
-  return nullptr;
+  mv.budget_checked = true;
+  return over_budget(L, mv.new_sum) ? "global_distortion" : nullptr;
 }
 
 void Engine::load_before(const Lane& L, Before& b) const {

@@ -422,6 +422,8 @@ void Engine::push_pair(Lane& L, int a, int b) {
   if (ps.attempts >= opt_.max_attempts) return;
   if (ps.va == C(a).version && ps.vb == C(b).version) return;  // its newest entry is current
   Entry e{0, a, b, C(a).version, C(b).version, 0};
+  // Scoring reads the two charts' UVs: a speculative move of them must leave the atlas first.
+  if (speculating_) drop_speculations_of(a, b, true);
   e.score = score(L, a, b, e.refusal);
   ps.va = e.va;
   ps.vb = e.vb;
@@ -470,8 +472,6 @@ void Engine::grid_remove(int f) {
   fowner_[static_cast<size_t>(f)] = -1;
 }
 
-namespace {
-/// Adds the move counters of `from` (attempts, acceptances, rejections, seconds) to `to`.
 void add_counters(MergeReport& to, const MergeReport& from) {
   to.candidates_initial += from.candidates_initial;
   to.attempted += from.attempted;
@@ -486,7 +486,6 @@ void add_counters(MergeReport& to, const MergeReport& from) {
   to.optimisation_seconds += from.optimisation_seconds;
   to.check_seconds += from.check_seconds;
 }
-}  // namespace
 
 MergeReport Engine::run(const Progress& progress) {
   setup();
@@ -504,6 +503,7 @@ MergeReport Engine::run(const Progress& progress) {
   if (second) {
     const auto t1 = Clock::now();
     main_.max_merges = opt_.max_merges;
+    spec_width_ = opt_.second_pass_batch > 0 ? opt_.second_pass_batch : thread_count();
     const size_t before = main_.rep.accepted;
     const int steps = std::max(1, opt_.second_pass_steps);
     for (int i = 0; i < steps; ++i) {
@@ -697,6 +697,14 @@ void Engine::measure_seams_left() {
 }
 
 void Engine::drain(Lane& L, const Progress& progress, double base, double span) {
+  // The second pass evaluates entries side by side (engine_speculate.cpp); whatever way drain
+  // leaves, no speculative move stays in the atlas.
+  start_speculation(L);
+  struct Stop {
+    Engine& en;
+    Lane& lane;
+    ~Stop() { en.stop_speculation(lane); }
+  } stop{*this, L};
   size_t popped = 0;
   while (!L.queue.empty() && static_cast<long long>(L.rep.accepted) < L.max_merges) {
     const Entry e = L.queue.top();
@@ -723,7 +731,7 @@ void Engine::drain(Lane& L, const Progress& progress, double base, double span) 
     std::vector<int> fresh;
     for (const auto& [n, edges] : C(small0).adj)
       if (n != big0 && !C(big0).adj.count(n)) fresh.push_back(n);
-    if (try_merge(e.a, e.b, reason, L)) {
+    if (merge_entry(e, reason, L)) {
       ++L.rep.accepted;
       const int big = big0;
       ChartInfo& B = C(big);

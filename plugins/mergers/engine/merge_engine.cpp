@@ -118,6 +118,8 @@ json MergeReport::to_json() const {
   j["first_pass_seconds"] = first_pass_seconds;
   j["second_pass_seconds"] = second_pass_seconds;
   j["close_cuts_seconds"] = close_cuts_seconds;
+  j["second_pass_speculated"] = second_pass_speculated;
+  j["second_pass_speculation_used"] = second_pass_speculation_used;
   json rej = json::object();
   size_t total = 0;
   for (const auto& [k, v] : rejected) {

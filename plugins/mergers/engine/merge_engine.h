@@ -66,6 +66,10 @@ struct MergeOptions {
   /// Solve with target shapes that close over-full boundary fans (docs/mergers.md step 6).
   bool fan_targets = false;
   double fan_margin = 0.01;  ///< fan targets close at 2 pi (1 - fan_margin)
+  /// Queue entries the second pass evaluates side by side (docs/mergers.md, "Parallel second pass"):
+  /// 0 = thread_count(), 1 = one at a time. Not a stage option (the result is the same for any
+  /// value); tests set it to run the speculation on one thread.
+  int second_pass_batch = 0;
 };
 
 /// The option declarations shared by every merger built on the engine (name, default, range, help).
@@ -94,6 +98,8 @@ struct MergeReport {
   double first_pass_seconds = 0;   ///< wall time of the first pass (its lanes run side by side)
   double second_pass_seconds = 0;  ///< wall time of the second pass (one queue)
   double close_cuts_seconds = 0;   ///< wall time of closing cuts (close_cuts)
+  size_t second_pass_speculated = 0;  ///< second-pass moves evaluated ahead of their turn, side by side
+  size_t second_pass_speculation_used = 0;  ///< of them, used when their turn came (the rest were dropped)
   std::map<std::string, size_t> rejected;  ///< by reason
   size_t fan_target_moves = 0;   ///< moves whose solve used fan targets (fan_targets)
   size_t cut_edges_in = 0;       ///< self-seam edges (both sides in one chart) when closing started

@@ -13,6 +13,7 @@
 
 #include <cstdio>
 #include <functional>
+#include <map>
 
 #include <cmath>
 #include <random>
@@ -412,6 +413,78 @@ TEST(MergeEngine, RegionLanesGiveTheSameAtlasForAnyThreadCount) {
     ASSERT_EQ(out[0].wedge_uv.size(), out[1].wedge_uv.size());
     for (size_t w = 0; w < out[0].wedge_uv.size(); ++w)
       ASSERT_TRUE(out[0].wedge_uv[w] == out[1].wedge_uv[w]) << "wedge " << w << " bound " << bound;
+  }
+}
+
+/// Region per face of a grid: squares of side `side` (cells), so that most merges are left to the
+/// second pass (across regions).
+std::vector<int> squares(const TexturedMesh& m, double side) {
+  std::vector<int> r(m.faces.size());
+  for (size_t f = 0; f < m.faces.size(); ++f) {
+    Vec3 c = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) c += m.corner_position(f, k) / 3;
+    r[f] = static_cast<int>(c.x() / side) + 1000 * static_cast<int>(c.y() / side);
+  }
+  // Dense ids, in order of first face.
+  std::map<int, int> ids;
+  for (int& x : r) x = ids.emplace(x, static_cast<int>(ids.size())).first->second;
+  return r;
+}
+
+TEST(MergeEngine, SpeculativeSecondPassGivesTheSerialAtlas) {
+  // The second pass evaluates queue entries ahead of their turn, side by side, and uses a result
+  // only when the serial order reaches it (docs/mergers.md, "Parallel second pass"). The atlas must
+  // be the one of one move at a time, bit for bit: batches of 1 (serial), 2 and 4 entries, on 1 and
+  // 4 threads; with a budget the second pass does not reach and one it spends (refusals as
+  // global_distortion, decided when a speculation is used), and in two steps.
+  struct Case {
+    double bound;
+    int steps;
+  };
+  for (const Case& cs : {Case{0.025, 1}, Case{0.006, 1}, Case{0.025, 2}}) {
+    std::vector<Atlas> out;
+    std::vector<MergeReport> reps;
+    const std::vector<std::pair<int, int>> runs{{1, 1}, {1, 2}, {1, 4}, {4, 2}, {4, 4}};  // threads, batch
+    for (const auto& [threads, batch] : runs) {
+      set_thread_count(threads);
+      test::Run run(test::distorted_fragmented_grid(20, 16, 0.08));
+      MergeOptions o;
+      o.priority = Priority::MMethod;
+      o.global_bound = cs.bound;
+      o.second_pass = SecondPass::AcrossRegions;
+      o.second_pass_seam_refusal = false;
+      o.second_pass_local_bound = 0.1;
+      o.second_pass_steps = cs.steps;
+      o.second_pass_batch = batch;
+      ArapSolver solver;
+      reps.push_back(run_merges(run.mesh, run.topo, run.ctx.atlas, squares(run.mesh, 2.0), o, solver, {}));
+      out.push_back(run.ctx.atlas);
+      test::expect_valid_atlas(run);
+    }
+    set_thread_count(0);
+    const std::string what = "bound " + std::to_string(cs.bound) + " steps " + std::to_string(cs.steps);
+    EXPECT_GT(reps[0].accepted_second_pass, 20u) << what;
+    EXPECT_EQ(reps[0].second_pass_speculated, 0u) << what;
+    if (cs.bound < 0.01) {
+      EXPECT_GT(reps[0].rejected["global_distortion"], 0u) << what;
+    }
+    for (size_t i = 1; i < runs.size(); ++i) {
+      const std::string run = what + ", threads " + std::to_string(runs[i].first) + " batch " + std::to_string(runs[i].second);
+      EXPECT_GT(reps[i].second_pass_speculation_used, 10u) << run;
+      EXPECT_EQ(reps[i].accepted, reps[0].accepted) << run;
+      EXPECT_EQ(reps[i].attempted, reps[0].attempted) << run;
+      EXPECT_EQ(reps[i].rejected, reps[0].rejected) << run;
+      EXPECT_EQ(out[i].face_chart, out[0].face_chart) << run;
+      EXPECT_EQ(out[i].face_wedge, out[0].face_wedge) << run;
+      ASSERT_EQ(out[i].wedge_uv.size(), out[0].wedge_uv.size()) << run;
+      for (size_t w = 0; w < out[0].wedge_uv.size(); ++w)
+        ASSERT_TRUE(out[i].wedge_uv[w] == out[0].wedge_uv[w]) << "wedge " << w << ", " << run;
+    }
+    std::printf("%s: second pass %zu merges, speculated %zu/%zu/%zu/%zu, used %zu/%zu/%zu/%zu, global refusals %zu\n",
+                what.c_str(), reps[0].accepted_second_pass, reps[1].second_pass_speculated, reps[2].second_pass_speculated,
+                reps[3].second_pass_speculated, reps[4].second_pass_speculated, reps[1].second_pass_speculation_used,
+                reps[2].second_pass_speculation_used, reps[3].second_pass_speculation_used,
+                reps[4].second_pass_speculation_used, reps[0].rejected["global_distortion"]);
   }
 }
 

@@ -1,0 +1,201 @@
+// The second pass side by side (docs/mergers.md, "Parallel second pass"). The second pass is one
+// queue across regions, so its order is the serial one; what runs side by side is the evaluation of
+// moves (align, weld, free region, ARAP solve, checks: the expensive part), by speculation:
+// - when drain pops an entry e to merge and no speculation of it stands, e is evaluated in a batch
+//   with up to spec_width_ - 1 entries further down the queue (the look-ahead) whose charts are
+//   neither e's nor a standing speculation's nor a neighbour of theirs; each on a lane of its own, all
+//   on the atlas as it is, on the thread pool;
+// - a move that passes its checks stays in the atlas; one refused is rolled back at once;
+// - results are used strictly in queue order: drain goes on exactly as with one thread (pops, lazy
+//   refreshes, refusals, commits and the pairs they re-queue), and when it pops an entry that has a
+//   standing speculation, that result is used; the global budget is checked then, with the error
+//   sum of that moment (check_distortion's own test on the same numbers);
+// - a speculation stands while its two charts keep the versions it was evaluated at; it is dropped
+//   (rolled back if in the atlas) before drain scores a pair of its charts (scoring reads their UVs)
+//   or evaluates an entry sharing one of them.
+// Why the result is the one of a single thread: a move reads and writes only its two charts (their
+// faces, wedges, grids, boundary, seam), reads other faces' charts only to compare them with its
+// own, and the error sum only in the budget test (first-pass lanes rely on the same, see
+// first_pass). A move of other charts committed meanwhile changes none of that, so the evaluation
+// ahead of time computes what the serial one would compute at its turn, bit for bit.
+#include "engine_internal.h"
+
+#include "texdefrag/util/parallel.h"
+
+#include <algorithm>
+#include <limits>
+#include <queue>
+
+namespace texdefrag::merge::detail {
+
+namespace {
+/// Queue entries the look-ahead examines per batch, best first.
+constexpr size_t kLookahead = 256;
+/// Speculations standing at once, at most (each holds its rollback log and, if it passed, its move
+/// in the atlas).
+constexpr size_t kMaxStanding = 16;
+}  // namespace
+
+void Engine::start_speculation(Lane& L) {
+  speculating_ = &L == &main_ && across_ && spec_width_ > 1 && solver_.reentrant();
+  stamp_high_ = std::max({stamp_high_, L.epoch, L.seen_stamp});
+}
+
+void Engine::stop_speculation(Lane& L) {
+  if (!speculating_) return;
+  for (auto& s : spec_)
+    if (s->live) drop(*s);
+  speculating_ = false;
+  // The lane's next stamps must be above every stamp the speculations' lanes left.
+  L.epoch = L.seen_stamp = std::max({stamp_high_, L.epoch, L.seen_stamp});
+}
+
+void Engine::drop(Speculation& s) {
+  if (s.in_atlas) rollback(s.lane);
+  s.in_atlas = false;
+  s.live = false;
+}
+
+void Engine::drop_speculations_of(int a, int b, bool in_atlas_only) {
+  for (auto& s : spec_) {
+    if (!s->live || (in_atlas_only && !s->in_atlas)) continue;
+    const int x = s->e.a, y = s->e.b;
+    if (x == a || x == b || y == a || y == b) drop(*s);
+  }
+}
+
+bool Engine::merge_entry(const Entry& e, std::string& reason, Lane& L) {
+  if (!speculating_) return try_merge(e.a, e.b, reason, L);
+  for (auto& s : spec_)
+    if (s->live && s->e.a == e.a && s->e.b == e.b && s->e.va == e.va && s->e.vb == e.vb) {
+      ++rep_.second_pass_speculation_used;
+      return settle(*s, reason, L);
+    }
+  // e's move writes into its charts: no speculation of them may stay in the atlas (and none would
+  // stand after e merges). Speculations whose charts changed since are dropped too.
+  drop_speculations_of(e.a, e.b, false);
+  for (auto& s : spec_)
+    if (s->live && (C(s->e.a).version != s->e.va || C(s->e.b).version != s->e.vb)) drop(*s);
+  std::vector<Speculation*> batch;
+  pick_lookahead(e, batch);
+  run_batch(batch);
+  return settle(*batch.front(), reason, L);
+}
+
+Engine::Speculation* Engine::free_slot() {
+  for (auto& s : spec_)
+    if (!s->live) return s.get();
+  spec_.push_back(std::make_unique<Speculation>());
+  return spec_.back().get();
+}
+
+void Engine::pick_lookahead(const Entry& e, std::vector<Speculation*>& batch) {
+  // batch[0] is e itself; its slot is live from now on so free_slot skips it.
+  Speculation* first = free_slot();
+  first->e = e;
+  first->live = true;
+  batch.push_back(first);
+  std::vector<int> busy{e.a, e.b};
+  size_t standing = 0;
+  for (const auto& s : spec_)
+    if (s->live && s.get() != first) {
+      busy.push_back(s->e.a);
+      busy.push_back(s->e.b);
+      ++standing;
+    }
+  // Best first over the heap (the children of entry i are 2i + 1 and 2i + 2): the order the pops
+  // would take, up to ties and to what the coming merges re-queue. Only a guess: a speculation is
+  // used only when drain pops its entry.
+  const std::vector<Entry>& heap = main_.queue.entries();
+  std::vector<const Entry*> found;
+  std::priority_queue<std::pair<double, size_t>> front;
+  if (!heap.empty()) front.emplace(heap[0].score, 0);
+  const size_t room = std::min(static_cast<size_t>(spec_width_) - 1, kMaxStanding - std::min(kMaxStanding, standing));
+  for (size_t examined = 0; !front.empty() && examined < kLookahead && room > 0; ++examined) {
+    const size_t i = front.top().second;
+    front.pop();
+    for (size_t c = 2 * i + 1; c <= 2 * i + 2 && c < heap.size(); ++c) front.emplace(heap[c].score, c);
+    const Entry& x = heap[i];
+    if (x.refusal) continue;  // drain refuses it without a move
+    const ChartInfo& A = charts_[static_cast<size_t>(x.a)];
+    const ChartInfo& B = charts_[static_cast<size_t>(x.b)];
+    if (!A.alive || !B.alive || A.version != x.va || B.version != x.vb) continue;  // stale
+    const auto ps = main_.pairs.find(Lane::pair_key(x.a, x.b));
+    if (ps == main_.pairs.end() || ps->second.attempts >= opt_.max_attempts) continue;
+    found.push_back(&x);
+  }
+  // Charts disjoint from the busy ones (required). Entries whose charts are not neighbours of them
+  // either come first: a merge re-scores its chart's pairs, which drops a neighbour's speculation
+  // when its move is in the atlas.
+  for (int strict = 1; strict >= 0; --strict)
+    for (const Entry* x : found) {
+      if (batch.size() > room) return;
+      bool clear = true;
+      for (int z : busy)
+        if (strict ? near_chart(x->a, z) || near_chart(x->b, z) : x->a == z || x->b == z) {
+          clear = false;
+          break;
+        }
+      if (!clear) continue;
+      Speculation* sp = free_slot();
+      sp->e = *x;
+      sp->live = true;
+      batch.push_back(sp);
+      busy.push_back(x->a);
+      busy.push_back(x->b);
+    }
+}
+
+void Engine::run_batch(std::vector<Speculation*>& batch) {
+  for (Speculation* s : batch) {
+    Lane& l = s->lane;
+    l.rep = MergeReport();
+    l.free_total = 0;
+    l.free_count = 0;
+    // The budget is checked when the result is used: here the lane's sum is 0, so mv.new_sum is the
+    // move's change of the sum exactly, and no bound applies.
+    l.err_sum = 0;
+    l.global_check = false;
+    l.err_max = std::numeric_limits<double>::infinity();
+    // Stamps above every earlier one; lanes of one batch share values but touch disjoint charts.
+    l.epoch = l.seen_stamp = stamp_high_;
+    s->reason.clear();
+    s->in_atlas = false;
+  }
+  parallel_for(batch.size(), [&](size_t i) {
+    Speculation& s = *batch[i];
+    s.mv = Move();
+    s.in_atlas = evaluate_merge(s.e.a, s.e.b, s.reason, s.lane, s.mv);
+  });
+  for (const Speculation* s : batch) stamp_high_ = std::max({stamp_high_, s->lane.epoch, s->lane.seen_stamp});
+  rep_.second_pass_speculated += batch.size() - 1;
+}
+
+bool Engine::settle(Speculation& s, std::string& reason, Lane& L) {
+  // What try_merge on L would have returned at this point of the queue: the same checks on the
+  // same charts, and the budget test with L's error sum now.
+  s.live = false;
+  add_counters(L.rep, s.lane.rep);
+  L.free_total += s.lane.free_total;
+  L.free_count += s.lane.free_count;
+  bool ok = s.in_atlas;
+  s.in_atlas = false;
+  reason = s.reason;
+  if (s.mv.budget_checked) {
+    // note: check_distortion computes L.err_sum + delta; the speculation's lane had err_sum 0, so its
+    // new_sum is delta itself and this sum is the same double.
+    const double new_sum = L.err_sum + s.mv.new_sum;
+    if (over_budget(L, new_sum)) {
+      if (ok) rollback(s.lane);
+      reason = "global_distortion";
+      return false;
+    }
+    s.mv.new_sum = new_sum;
+  }
+  if (!ok) return false;
+  s.mv.lane = &L;
+  commit(s.mv);
+  return true;
+}
+
+}  // namespace texdefrag::merge::detail
