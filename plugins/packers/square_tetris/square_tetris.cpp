@@ -39,6 +39,20 @@ using packing::PackResult;
 using packing::Placement;
 
 struct Seg { int x, w, y; };
+
+/// Block grid of a placement (CommonSettings::block_grid): positions v with v = r modulo g; g <= 1
+/// allows every position.
+struct Grid {
+  int g = 1, rx = 0, ry = 0;
+  bool on() const { return g > 1; }
+  /// Smallest v' >= v with v' = r (mod g).
+  static int up(int v, int r, int g) { return g <= 1 ? v : v + (((r - v) % g) + g) % g; }
+  /// Largest v' <= v with v' = r (mod g).
+  static int down(int v, int r, int g) { return g <= 1 ? v : v - (((v - r) % g) + g) % g; }
+  int up_x(int v) const { return up(v, rx, g); }
+  int up_y(int v) const { return up(v, ry, g); }
+  int down_x(int v) const { return down(v, rx, g); }
+};
 struct Rect {
   int x, y, w, h;
   long long area() const { return static_cast<long long>(w) * h; }
@@ -51,7 +65,8 @@ class PageState {
   PageState(int width, int height) : width_(width), height_(height) { sky_.push_back({0, width, 0}); }
 
   /// Best hole for a (w x h) rectangle: returns leftover area, or -1 when none fits.
-  long long best_hole(int w, int h, int min_side, size_t& which) {
+  /// With a block grid the rectangle goes to the hole's lowest-left grid position (hx, hy).
+  long long best_hole(int w, int h, int min_side, size_t& which, const Grid& grid, int& hx, int& hy) {
     long long best = -1;
     int best_short = INT_MAX;
     for (size_t i = 0; i < holes_.size();) {
@@ -61,13 +76,16 @@ class PageState {
         holes_.pop_back();
         continue;
       }
-      if (w <= r.w && h <= r.h) {
+      const int x = grid.up_x(r.x), y = grid.up_y(r.y);
+      if (x + w <= r.x + r.w && y + h <= r.y + r.h) {
         const long long left = r.area() - static_cast<long long>(w) * h;
         const int short_side = std::min(r.w - w, r.h - h);
         if (best < 0 || left < best || (left == best && short_side < best_short)) {
           best = left;
           best_short = short_side;
           which = i;
+          hx = x;
+          hy = y;
         }
       }
       ++i;
@@ -76,23 +94,28 @@ class PageState {
   }
 
   /// Best horizon position for a (w x h) rectangle: returns false when it does not fit the page.
-  bool best_on_horizon(int w, int h, int& bx, int& by, long long& bwaste) const {
+  /// With a block grid, candidates move right (segment starts) or left (right-aligned ends) to the
+  /// nearest grid column and the rectangle rests on the first grid row at or above the horizon.
+  bool best_on_horizon(int w, int h, int& bx, int& by, long long& bwaste, const Grid& grid) const {
     bool found = false;
     long long best_peak = 0;
     for (size_t i = 0; i < sky_.size(); ++i) {
       for (int side = 0; side < 2; ++side) {
-        const int x = side == 0 ? sky_[i].x : sky_[i].x + sky_[i].w - w;
+        int x = side == 0 ? sky_[i].x : sky_[i].x + sky_[i].w - w;
+        if (grid.on()) x = side == 0 ? grid.up_x(x) : grid.down_x(x);
         if (x < 0 || x + w > width_) continue;
-        if (side == 1 && x == sky_[i].x) continue;
-        // Both candidates cover segment i, so the rectangle rests at y >= sky_[i].y.
-        if (found && static_cast<long long>(sky_[i].y) + h > best_peak) continue;
-        size_t j = i;
+        if (side == 1 && x == (grid.on() ? grid.up_x(sky_[i].x) : sky_[i].x)) continue;
+        // Both candidates cover segment i (off the block grid), so the rectangle rests at y >= sky_[i].y.
+        if (!grid.on() && found && static_cast<long long>(sky_[i].y) + h > best_peak) continue;
+        size_t j = std::min(i, sky_.size() - 1);
         while (j > 0 && sky_[j].x > x) --j;
+        while (j + 1 < sky_.size() && sky_[j].x + sky_[j].w <= x) ++j;
         int y = 0;
         for (size_t k = j; k < sky_.size() && sky_[k].x < x + w; ++k) {
           y = std::max(y, sky_[k].y);
           if (found && static_cast<long long>(y) + h > best_peak) break;
         }
+        y = grid.up_y(y);
         if (y + h > height_) continue;
         if (found && static_cast<long long>(y) + h > best_peak) continue;
         long long waste = 0;
@@ -113,9 +136,10 @@ class PageState {
     return found;
   }
 
-  /// Places a rectangle inside hole `which`, at its lower-left corner.
-  Rect place_in_hole(size_t which, int w, int h, int min_side) {
-    const Rect r{holes_[which].x, holes_[which].y, w, h};
+  /// Places a rectangle at (x, y) inside a hole (best_hole's position: the hole's lower-left
+  /// corner, or its lowest-left block grid position), splitting every hole it meets.
+  Rect place_in_hole(int x, int y, int w, int h, int min_side) {
+    const Rect r{x, y, w, h};
     placed_.push_back(r);
     std::vector<Rect> pieces;
     for (size_t i = 0; i < holes_.size();) {
@@ -216,6 +240,7 @@ struct RunMask {
   int shape = -1;  ///< masks with the same cells share a shape id (RasterPage's resume rows)
   int core_w = 0, core_h = 0, core_y = 0;  ///< a solid rectangle inside the mask: size, lowest row
   long long outline_cells = 0, cells = 0;  ///< cells of the outline before and after dilation
+  Grid grid;  ///< block grid of the padded box's position (an exact chart with block_grid; else off)
 };
 
 /// raw0: the chart's raster in turn 0 when the caller has it (used for q = 0), else null.
@@ -339,7 +364,8 @@ class RasterPage {
       by = y;
       return true;
     };
-    for (int y = start; y + m.h <= max_top; ++y) {
+    start = m.grid.up_y(start);
+    for (int y = start; y + m.h <= max_top; y = m.grid.up_y(y + 1)) {
       // Each mask row needs a page row whose longest free run holds its longest run: skip to the
       // next y where the first row that cannot (longest runs first) can.
       int skip = -1;
@@ -353,7 +379,7 @@ class RasterPage {
         }
       }
       if (skip >= 0) {
-        y = skip - 1;
+        y = m.grid.up_y(skip) - 1;  // the loop's step goes on to the next grid row at or above skip
         continue;
       }
       const int x = leftmost_at(m, y);
@@ -412,7 +438,11 @@ class RasterPage {
       if (next.empty()) return -1;
       std::swap(X, next);
     }
-    return X.front().a;
+    for (const Run& f : X) {  // the leftmost offset on the block grid
+      const int x = m.grid.up_x(f.a);
+      if (x < f.b) return x;
+    }
+    return -1;
   }
   /// Lowest row y in [from, last] such that rows y .. y + h - 1 share a free interval of w cells
   /// (a free w x h rectangle at row y), or -1.
@@ -496,6 +526,16 @@ class RasterPage {
   std::vector<int> resume_;                  ///< per mask shape: lowest row where it may still fit
 };
 
+/// The block grid of chart c's padded box in turn q (off unless c is block-aligned).
+Grid block_grid_of(const PackChart& c, int q, const CommonSettings& s) {
+  Grid g;
+  if (!c.block_aligned || s.block_grid <= 1) return g;
+  g.g = s.block_grid;
+  g.rx = c.bx[q] - s.gutter / 2;  // Placement = padded box + gutter / 2
+  g.ry = c.by[q] - s.gutter / 2;
+  return g;
+}
+
 /// tail: charts from order[tail] on are small; they are placed by their dilated outline at the lowest
 /// free position of the page (RasterPage), with `profiles` (outline run masks per turn) per chart id,
 /// or, when `drops` is not empty (a tail too large for that search), dropped on the horizon above
@@ -535,21 +575,23 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
       PageState& pg = pages[p];
       // 1. enclosed unused spaces first.
       long long best = -1;
-      size_t best_hole = 0;
+      int hole_x = 0, hole_y = 0;
       int best_q = 0;
       for (int q = 0; q < nq && n < tail; ++q) {
         size_t which = 0;
-        const long long left =
-            pg.best_hole(packing::padded_w(c, q, s), packing::padded_h(c, q, s), suffix_min[n], which);
+        int x = 0, y = 0;
+        const long long left = pg.best_hole(packing::padded_w(c, q, s), packing::padded_h(c, q, s), suffix_min[n],
+                                            which, block_grid_of(c, q, s), x, y);
         if (left >= 0 && (best < 0 || left < best)) {
           best = left;
-          best_hole = which;
+          hole_x = x;
+          hole_y = y;
           best_q = q;
         }
       }
       Rect at{};
       if (best >= 0) {
-        at = pg.place_in_hole(best_hole, packing::padded_w(c, best_q, s), packing::padded_h(c, best_q, s), min_side);
+        at = pg.place_in_hole(hole_x, hole_y, packing::padded_w(c, best_q, s), packing::padded_h(c, best_q, s), min_side);
         ++r.hole_fills;
       } else if (n >= tail && !drops.empty()) {
         // 3'. small charts of a large tail: dropped on the horizon (packers.tetris's drop).
@@ -615,7 +657,7 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
           int x = 0, y = 0;
           long long waste = 0;
           const int w = packing::padded_w(c, q, s), h = packing::padded_h(c, q, s);
-          if (!pg.best_on_horizon(w, h, x, y, waste)) continue;
+          if (!pg.best_on_horizon(w, h, x, y, waste, block_grid_of(c, q, s))) continue;
           const long long peak = y + h;
           if (!found || peak < bpeak || (peak == bpeak && waste < bwaste)) {
             found = true;
@@ -651,6 +693,16 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
 
 class SquareTetris : public Packer {
  public:
+  void set_options(const Options& o) override {
+    Stage::set_options(o);
+    const long long g = o.get_int("block_grid");
+    if (g > 1 && !o.get_bool("power_of_two") && o.get_int("page_multiple") % g != 0)
+      throw StageError("packers.square_tetris: block_grid " + std::to_string(g) + " must divide page_multiple " +
+                       std::to_string(o.get_int("page_multiple")) + " (output page heights must be whole blocks)");
+    if (g > 1 && o.get_int("max_page_size") % g != 0)
+      throw StageError("packers.square_tetris: block_grid " + std::to_string(g) + " must divide max_page_size " +
+                       std::to_string(o.get_int("max_page_size")));
+  }
   static StageInfo info() {
     StageInfo i;
     i.name = "packers.square_tetris";
@@ -700,6 +752,11 @@ class SquareTetris : public Packer {
                                 "page_multiple steps narrower and wider than the best width are packed too (best tail order), "
                                 "keeping the smallest result (0: off)")
                             .range(0, 64));
+    i.options.push_back(opt_int("block_grid", 0,
+                                "Exact charts are placed so that their input page's block grid of this size (JPEG: 8) "
+                                "lands on the output page's (0 or 1: off); it must divide page_multiple")
+                            .range(0, 64)
+                            .unit("texels"));
     i.create = [] { return std::make_unique<SquareTetris>(); };
     return i;
   }
@@ -768,9 +825,13 @@ class SquareTetris : public Packer {
         auto& out = profiles[static_cast<size_t>(order[n])];
         // Rectangles are placed in turns 0 and 1 only: their other turns' masks are never read.
         const size_t turns = n < rects ? std::min<size_t>(2, pr.size()) : pr.size();
+        // note: on the block grid a turn with the same cells has other residues: not a duplicate.
+        const bool gridded = block_grid_of(c, 0, s).on();
         for (size_t q = 0; q < pr.size(); ++q) {
-          out.push_back(pr[q].duplicate || q >= turns ? RunMask{} : make_run_mask(c, static_cast<int>(q), s, &raw0));
-          out.back().duplicate = pr[q].duplicate;
+          const bool dup = pr[q].duplicate && !gridded;
+          out.push_back(dup || q >= turns ? RunMask{} : make_run_mask(c, static_cast<int>(q), s, &raw0));
+          out.back().duplicate = dup;
+          out.back().grid = block_grid_of(c, static_cast<int>(q), s);
         }
       });
     // Shape ids and the tail's need, in order (labels only: the same whatever the thread count).
@@ -779,7 +840,8 @@ class SquareTetris : public Packer {
       for (RunMask& m : profiles[static_cast<size_t>(order[n])]) {
         if (&m == &profiles[static_cast<size_t>(order[n])][0]) need += static_cast<double>(m.cells);
         if (m.duplicate) continue;
-        std::vector<int> key{m.w, m.h};
+        // note: the block grid is part of the shape: the resume row holds for one grid only.
+        std::vector<int> key{m.w, m.h, m.grid.g, m.grid.rx, m.grid.ry};
         for (const auto& row : m.rows) {
           key.push_back(-1);
           for (const auto& [a, len] : row) { key.push_back(a); key.push_back(len); }
@@ -842,7 +904,8 @@ class SquareTetris : public Packer {
 
   void pack(StageContext& ctx) override {
     const std::string name = "packers.square_tetris";
-    const CommonSettings s = packing::read_common(options());
+    CommonSettings s = packing::read_common(options());
+    s.block_grid = static_cast<int>(options().get_int("block_grid"));
     const PackInput in = packing::prepare_charts(ctx, s, name);
     packing::check_chart_sizes(in, s, name);
     std::vector<int> order = packing::order_by_area(in, s);

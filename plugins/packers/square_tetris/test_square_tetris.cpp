@@ -324,3 +324,81 @@ TEST(PackersSquareTetris, OutlineTailLowestThenLeftmostAroundNarrowGaps) {
     EXPECT_EQ(lo[3], ab == 25 ? Vec2(60.25, 16.25) : Vec2(2.25, 40.25)) << "A and B " << ab << " cells wide";
   }
 }
+
+namespace {
+/// Per chart with faces: whether its output UVs are its input texels turned by k quarter turns and
+/// moved by T with T on the g x g block grid, both measured in image coordinates (x, page height -
+/// y: JPEG's blocks start at the image's top-left corner), so that the input's g x g blocks land on
+/// output blocks. Checked independently of the packer's residues (any k, T found from the UVs).
+std::vector<bool> charts_on_block_grid(const PackRun& run, int g) {
+  const Atlas& a = run.ctx.atlas;
+  const Layout& L = run.ctx.layout;
+  const auto faces = a.chart_faces();
+  std::vector<bool> out;
+  for (int c = 0; c < a.num_charts; ++c) {
+    const auto& fs = faces[static_cast<size_t>(c)];
+    if (fs.empty()) continue;
+    const double h_out = L.pages[static_cast<size_t>(L.chart_page[static_cast<size_t>(c)])].height;
+    auto in_img = [&](int f, int k) {
+      const Vec2 t = run.mesh.corner_texel(static_cast<size_t>(f), k);
+      return Vec2(t.x(), run.mesh.pages[0].height - t.y());
+    };
+    auto out_img = [&](int f, int k) {
+      const Vec2 t = L.wedge_uv[static_cast<size_t>(a.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
+      return Vec2(t.x(), h_out - t.y());
+    };
+    bool on = false;
+    for (int q = 0; q < 4 && !on; ++q) {
+      const Vec2 T = out_img(fs[0], 0) - packing::rotate90(in_img(fs[0], 0), q);
+      bool rigid = true;
+      for (int f : fs)
+        for (int k = 0; k < 3; ++k)
+          rigid = rigid && (out_img(f, k) - packing::rotate90(in_img(f, k), q) - T).cwiseAbs().maxCoeff() < 1e-6;
+      const auto on_grid = [g](double v) {
+        const double r = std::fmod(std::fmod(v, g) + g, g);
+        return std::min(r, g - r) < 1e-6;
+      };
+      on = rigid && on_grid(T.x()) && on_grid(T.y());
+    }
+    out.push_back(on);
+  }
+  return out;
+}
+}  // namespace
+
+TEST(PackersSquareTetris, BlockGridPutsExactChartsOnTheInputBlockGrid) {
+  // Input page 1003 texels high (not a multiple of 8: the input's block rows start at its top, so
+  // y residues differ from x's), random charts with fractional corners and rotated rectangles;
+  // tail_side 40 makes the larger ones rectangles (holes and horizon) and the rest the outline
+  // tail. With block_grid 8 every chart's input 8 x 8 blocks must land on output blocks; without
+  // it most do not (the check can fail).
+  std::mt19937 rng(5);
+  auto polys = random_polygons(rng, 160, 3, 70, 1003);
+  for (size_t i = 0; i < polys.size(); i += 3)
+    for (Vec2& p : polys[i]) p += Vec2(0.37, 0.61);  // off the texel grid: fractional anchors
+  const json opts = {{"tail_side", 40}, {"width_trials", 3}};
+  json grid = opts;
+  grid["block_grid"] = 8;
+  for (int gutter : {2, 4}) {
+    SCOPED_TRACE("gutter " + std::to_string(gutter));
+    json o = grid;
+    o["gutter"] = gutter;
+    auto run = run_packer(kName, polygon_mesh(polys, 1003), o);
+    expect_valid_layout(*run, gutter);
+    EXPECT_EQ(exact_chart_fraction(*run), 1.0);
+    const auto on = charts_on_block_grid(*run, 8);
+    EXPECT_EQ(std::count(on.begin(), on.end(), true), static_cast<long>(on.size()));
+    EXPECT_GT(run->report.at("outline_drops").get<int>(), 0);
+    EXPECT_LT(run->report.at("tail_charts").get<size_t>(), on.size());  // some rectangles too
+  }
+  auto off = run_packer(kName, polygon_mesh(polys, 1003), opts);
+  const auto on = charts_on_block_grid(*off, 8);
+  EXPECT_LT(std::count(on.begin(), on.end(), true), static_cast<long>(on.size()) / 2);
+}
+
+TEST(PackersSquareTetris, BlockGridMustDividePageMultiple) {
+  const std::vector<std::vector<Vec2>> polys = {{{0, 0}, {10, 0}, {10, 10}, {0, 10}}};
+  EXPECT_THROW(run_packer(kName, polygon_mesh(polys, 64), {{"block_grid", 8}, {"page_multiple", 12}}), std::exception);
+  auto run = run_packer(kName, polygon_mesh(polys, 64), {{"block_grid", 8}, {"page_multiple", 16}});
+  expect_valid_layout(*run, 4);
+}

@@ -99,6 +99,26 @@ void compute_boxes(PackChart& c) {
   }
 }
 
+/// Block grid residues of an exact chart (PackChart::bx, by). Its anchor maps input texel point
+/// `in` to base point R_m(in) + k (k integral); orientation q places base point b at
+/// R_q(b) - (ox[q], oy[q]) + (x, y). Input blocks have corners at (0, H_in) + G Z^2 (rows counted
+/// from the image's top), output blocks at G Z^2 (page heights are multiples of G), and quarter
+/// turns about the origin keep G Z^2, so the anchor's blocks land on output blocks exactly when
+/// R_{q+m}((0, H_in)) + R_q(k) - (ox[q], oy[q]) + (x, y) is in G Z^2.
+void block_residues(PackChart& c, const Vec2& k, int m, int page_height, int g) {
+  auto mod = [g](double v) {
+    const long long r = std::llround(v) % g;
+    return static_cast<int>(r < 0 ? r + g : r);
+  };
+  c.block_aligned = true;
+  for (int q = 0; q < 4; ++q) {
+    const Vec2 shift = rotate90(Vec2(0.0, static_cast<double>(page_height)), (q + m) % 4) + rotate90(k, q) -
+                       Vec2(static_cast<double>(c.ox[q]), static_cast<double>(c.oy[q]));
+    c.bx[q] = mod(-shift.x());
+    c.by[q] = mod(-shift.y());
+  }
+}
+
 }  // namespace
 
 PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const std::string& stage) {
@@ -144,6 +164,7 @@ PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const
     // Grid-exact face groups: (quarter turn m, fractional translation) -> UV area.
     std::map<std::tuple<int, long long, long long>, double> groups;
     std::map<std::tuple<int, long long, long long>, Vec2> group_t;
+    std::map<std::tuple<int, long long, long long>, int> group_h;  // input page height (block grid)
     for (size_t i = 0; i < c.faces.size(); ++i) {
       const int f = c.faces[i];
       Vec2 uv[3], inp[3];
@@ -161,15 +182,19 @@ PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const
         const auto key = std::make_tuple(m, frac_key(t.x()), frac_key(t.y()));
         groups[key] += area;
         group_t.emplace(key, t);
+        group_h.emplace(key, ctx.mesh ? ctx.mesh->pages[static_cast<size_t>(ctx.mesh->faces[static_cast<size_t>(f)].page)].height : 0);
         break;
       }
     }
     double best = 0;
     Vec2 best_t = Vec2::Zero();
+    int best_m = 0, best_h = 0;
     for (const auto& g : groups)
       if (g.second > best) {
         best = g.second;
         best_t = group_t[g.first];
+        best_m = std::get<0>(g.first);
+        best_h = group_h[g.first];
       }
     c.exact_area = best;
     c.exact = best > 0 && best >= s.exact_fraction * c.uv_area;
@@ -198,6 +223,7 @@ PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const
       for (size_t i = 0; i < c.wedges.size(); ++i) c.base[i] = c.angle != 0 ? rotate(pts[i], c.angle) : pts[i];
     }
     compute_boxes(c);
+    if (c.exact && s.block_grid > 1) block_residues(c, best_t - c.grid_offset, best_m, best_h, s.block_grid);
   });
   for (const PackChart& c : in.charts) in.total_uv_area += c.uv_area;
   return in;
@@ -206,12 +232,15 @@ PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const
 void check_chart_sizes(const PackInput& in, const CommonSettings& s, const std::string& stage) {
   for (const PackChart& c : in.charts) {
     if (c.faces.empty()) continue;
-    const bool fits0 = c.w[0] + s.gutter <= s.max_page_size && c.h[0] + s.gutter <= s.max_page_size;
-    const bool fits1 = s.allow_rotation && c.w[1] + s.gutter <= s.max_page_size && c.h[1] + s.gutter <= s.max_page_size;
+    const int k = block_slack(c, s);  // 0 off the block grid
+    const bool fits0 = c.w[0] + s.gutter + k <= s.max_page_size && c.h[0] + s.gutter + k <= s.max_page_size;
+    const bool fits1 =
+        s.allow_rotation && c.w[1] + s.gutter + k <= s.max_page_size && c.h[1] + s.gutter + k <= s.max_page_size;
     if (!fits0 && !fits1) {
       std::ostringstream os;
       os << stage << ": chart " << c.id << " (" << c.faces.size() << " faces) is " << c.w[0] << " x " << c.h[0]
-         << " texels, which with the gutter of " << s.gutter << " does not fit max_page_size " << s.max_page_size;
+         << " texels, which with the gutter of " << s.gutter << (k > 0 ? " and the block grid" : "")
+         << " does not fit max_page_size " << s.max_page_size;
       throw StageError(os.str());
     }
   }
@@ -264,9 +293,10 @@ int min_page_width(const PackInput& in, const CommonSettings& s) {
   for (const PackChart& c : in.charts) {
     if (c.faces.empty()) continue;
     int mw = s.max_page_size;
+    const int k = block_slack(c, s);
     for (int q = 0; q < (s.allow_rotation ? 2 : 1); ++q)
-      if (padded_h(c, q, s) <= s.max_page_size && padded_w(c, q, s) <= s.max_page_size)
-        mw = std::min(mw, padded_w(c, q, s));
+      if (padded_h(c, q, s) + k <= s.max_page_size && padded_w(c, q, s) + k <= s.max_page_size)
+        mw = std::min(mw, padded_w(c, q, s) + k);
     min_width = std::max(min_width, mw);
   }
   return min_width;

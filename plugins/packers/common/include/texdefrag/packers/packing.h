@@ -38,6 +38,11 @@ struct CommonSettings {
   double rotation_gain = 0.05;  ///< relative rectangle-area gain required for a free rotation
   double exact_fraction = 0.25; ///< grid-exact share of a chart's UV area that makes it exact
   int width_trials = 5;         ///< page widths tried when everything fits on one page, [1, 16]
+  /// Block grid (texels; 0 or 1 = off), set by packers that declare the option (square_tetris's
+  /// `block_grid`): an exact chart is placed so that its anchor's input texel grid lands on the
+  /// output texel grid with the input page's G x G blocks (JPEG's 8 x 8) on the output page's G x G
+  /// blocks (both counted from the image's top-left corner; output page heights are multiples of G).
+  int block_grid = 0;
 };
 
 /// Declarations of the common options, appended to each packer's StageInfo::options.
@@ -65,6 +70,11 @@ struct PackChart {
   /// Lowest cell corner of the box in orientation q: floor of the rotated base's minimum; the box
   /// is [ox, ox + w) x [oy, oy + h) with w = max(1, ceil(max x) - ox) (same for h).
   int ox[4] = {0, 0, 0, 0}, oy[4] = {0, 0, 0, 0};
+  /// Block grid (CommonSettings::block_grid = G > 1, exact charts only; `block_aligned` false
+  /// otherwise): in orientation q the chart's Placement must have x = bx[q] and y = by[q] modulo G,
+  /// in [0, G).
+  bool block_aligned = false;
+  int bx[4] = {0, 0, 0, 0}, by[4] = {0, 0, 0, 0};
 
   /// Cell box area in orientation 0 (texels^2).
   long long box_area() const { return static_cast<long long>(w[0]) * h[0]; }
@@ -230,6 +240,11 @@ size_t place_on_pages(Pages& pages, MakePage&& make_page, TryPage&& try_page, co
 /// Cell box size of chart c in orientation q grown by the gutter (texels).
 inline int padded_w(const PackChart& c, int q, const CommonSettings& s) { return c.w[q] + s.gutter; }
 inline int padded_h(const PackChart& c, int q, const CommonSettings& s) { return c.h[q] + s.gutter; }
+/// Texels a block-aligned chart may need beyond its padded box to reach its block grid position
+/// (block_grid - 1; 0 for other charts): page widths and max_page_size must leave it.
+inline int block_slack(const PackChart& c, const CommonSettings& s) {
+  return c.block_aligned && s.block_grid > 1 ? s.block_grid - 1 : 0;
+}
 
 /// Charts with faces, by decreasing padded box area (ties: chart id).
 std::vector<int> order_by_area(const PackInput& in, const CommonSettings& s);
