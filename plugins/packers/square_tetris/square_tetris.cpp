@@ -23,6 +23,8 @@
 
 #include <algorithm>
 #include <climits>
+#include <cmath>
+#include <random>
 #include <functional>
 #include <limits>
 #include <map>
@@ -747,6 +749,20 @@ class SquareTetris : public Packer {
                                 "area and in decreasing shorter side, and the smallest result is kept (0: only the "
                                 "decreasing padded box area)")
                             .range(0, 100000000));
+    i.options.push_back(opt_int("order_shuffles", 0,
+                                "With at most order_trials_max_charts outline-tail charts, this many more tail orders are "
+                                "packed: decreasing padded box area, each scaled by a fixed pseudo-random factor in "
+                                "[e^-0.5, e^0.5]; the smallest result is kept (0: off)")
+                            .range(0, 256));
+    // note: default from measurements (docs/packers.md, "Free trial"): YCB banana, 6 partly exact
+    // peels, 7.10 -> 5.57 MP; elsewhere freeing partly exact charts saves at most ~2% of page area
+    // and costs sample PSNR (resampling), so smaller gains keep the exact packing.
+    i.options.push_back(opt_double("free_trial_gain", 0.05,
+                                   "With at most order_trials_max_charts charts, some exact but partly resampled, the "
+                                   "charts are also packed with exact_fraction 1 (those charts free to rotate); that "
+                                   "packing is kept when it needs fewer pages or at least this share less page area "
+                                   "(1: off)")
+                            .range(0, 1));
     i.options.push_back(opt_int("width_refine", 8,
                                 "With an outline tail of at most order_trials_max_charts charts and width_trials > 1, the page widths 1 .. width_refine "
                                 "page_multiple steps narrower and wider than the best width are packed too (best tail order), "
@@ -874,6 +890,28 @@ class SquareTetris : public Packer {
       std::stable_sort(o.begin() + static_cast<long>(tail), o.end(), [&](int a, int b) { return key(a) > key(b); });
       if (std::none_of(out.begin(), out.end(), [&](const auto& e) { return e.second == o; })) out.emplace_back(entry.first, std::move(o));
     }
+    // Shuffled orders: decreasing padded box area, each area scaled by a pseudo-random factor in
+    // [e^-0.5, e^0.5] (std::mt19937 with a fixed seed and its raw output only, so the orders, and
+    // the layouts, are the same with every standard library).
+    // note: the bottom-left fill's result varies by 1-3% of page area between orders and page
+    // widths without a pattern (docs/packers.md); where few charts make the page, more orders find
+    // a smaller one, as the M-method's packer tries permutations of fewer than 50 charts.
+    const long long shuffles = options().get_int("order_shuffles");
+    std::mt19937 rng(20261202u);
+    for (long long k = 0; k < shuffles; ++k) {
+      std::vector<std::pair<double, int>> keyed;
+      for (size_t n = tail; n < order.size(); ++n) {
+        const PackChart& c = in.charts[static_cast<size_t>(order[n])];
+        const double u = static_cast<double>(rng() >> 8) / 16777216.0;  // [0, 1), 24 bits
+        const double box = static_cast<double>(packing::padded_w(c, 0, s)) * packing::padded_h(c, 0, s);
+        keyed.emplace_back(box * std::exp(u - 0.5), order[n]);
+      }
+      std::stable_sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+      std::vector<int> o(order.begin(), order.begin() + static_cast<long>(tail));
+      for (const auto& e : keyed) o.push_back(e.second);
+      if (std::none_of(out.begin(), out.end(), [&](const auto& e) { return e.second == o; }))
+        out.emplace_back("shuffled_" + std::to_string(k + 1), std::move(o));
+    }
     return out;
   }
 
@@ -902,11 +940,22 @@ class SquareTetris : public Packer {
     return out;
   }
 
-  void pack(StageContext& ctx) override {
+  /// One complete packing of ctx.atlas with settings s (every tail order, page width and
+  /// refinement), and what the report says about it.
+  struct Packed {
+    PackInput in;
+    PackResult r;
+    size_t tail_charts = 0, orders = 0, width_trials = 0;
+    bool tail_skipped = false, refined = false;
+    std::string order;
+    long long outline = 0, padded = 0;  ///< outline cells before and after dilation (tail masks)
+  };
+
+  Packed pack_all(StageContext& ctx, const CommonSettings& s) const {
     const std::string name = "packers.square_tetris";
-    CommonSettings s = packing::read_common(options());
-    s.block_grid = static_cast<int>(options().get_int("block_grid"));
-    const PackInput in = packing::prepare_charts(ctx, s, name);
+    Packed out;
+    out.in = packing::prepare_charts(ctx, s, name);
+    const PackInput& in = out.in;
     packing::check_chart_sizes(in, s, name);
     std::vector<int> order = packing::order_by_area(in, s);
     const long long tail_side = options().get_int("tail_side");
@@ -941,7 +990,7 @@ class SquareTetris : public Packer {
     // (same result as packing them fully; t016_L19: ~2x faster).
     // note: page widths from the area the charts need as placed (padded boxes of the rectangles,
     // dilated outlines of the tail) as well as from their boxes.
-    PackResult r;
+    PackResult& r = out.r;
     std::string best_order;
     const auto orders = tail_orders(in, s, order, tail, tail_skipped);
     const std::vector<int> widths = packing::trial_widths(in, s, plan.need);
@@ -960,34 +1009,79 @@ class SquareTetris : public Packer {
         r = std::move(t), best_order = entry.first, best_width = w, best_o = &entry.second;
     }
     const std::vector<int> extra = refine_widths(in, s, widths, best_width, tail_charts, tail_skipped);
-    bool refined = false;
     if (!extra.empty()) {
       int w = 0;
       PackResult t = packing::pack_widths(in, s, extra, packer(*best_o), &w, &r);
-      if (packing::better_result(t, r)) r = std::move(t), best_width = w, refined = true;
+      if (packing::better_result(t, r)) r = std::move(t), best_width = w, out.refined = true;
     }
-    const std::vector<std::vector<RunMask>>& profiles = plan.profiles;
+    out.tail_charts = tail_charts;
+    out.tail_skipped = tail_skipped;
+    out.orders = orders.size();
+    out.order = best_order;
+    out.width_trials = widths.size() * orders.size() + extra.size();
+    // where the page area goes: UV area / rasterised outlines / outlines dilated by the gutter
+    for (const auto& p : plan.profiles)
+      if (!p.empty()) {
+        out.outline += p[0].outline_cells;
+        out.padded += p[0].cells;
+      }
+    return out;
+  }
+
+  /// Whether a packing with every partly exact chart freed (exact_fraction 1) may differ: some
+  /// chart is exact under s but not wholly grid-exact, and the atlas is small enough for trials.
+  bool free_trial_applies(const Packed& p, const CommonSettings& s) const {
+    const double gain = options().get_double("free_trial_gain");
+    const long long max_charts = options().get_int("order_trials_max_charts");
+    if (gain >= 1 || s.exact_fraction >= 1 || max_charts <= 0) return false;
+    size_t charts = 0;
+    bool partly = false;
+    for (const PackChart& c : p.in.charts) {
+      if (c.faces.empty()) continue;
+      ++charts;
+      partly = partly || (c.exact && c.exact_area < c.uv_area);
+    }
+    return partly && charts <= static_cast<size_t>(max_charts);
+  }
+
+  void pack(StageContext& ctx) override {
+    const std::string name = "packers.square_tetris";
+    CommonSettings s = packing::read_common(options());
+    s.block_grid = static_cast<int>(options().get_int("block_grid"));
+    Packed best = pack_all(ctx, s);
+    // Free trial: the same charts with every partly exact chart free to rotate (resampled), kept
+    // only when it saves at least free_trial_gain of the page area (or a page).
+    bool freed = false;
+    if (free_trial_applies(best, s)) {
+      CommonSettings f = s;
+      f.exact_fraction = 1;
+      Packed t = pack_all(ctx, f);
+      const double gain = options().get_double("free_trial_gain");
+      if (t.r.pages < best.r.pages ||
+          (t.r.pages == best.r.pages && t.r.total_area() <= (1 - gain) * best.r.total_area())) {
+        best = std::move(t);
+        freed = true;
+      }
+    }
+    const PackResult& r = best.r;
     ctx.step(name, 1.0);
-    packing::write_layout(ctx, in, r);
+    packing::write_layout(ctx, best.in, r);
     if (ctx.report) {
       (*ctx.report)["hole_fills"] = r.hole_fills;
       (*ctx.report)["outline_drops"] = r.outline_drops;
-      (*ctx.report)["tail_charts"] = tail_charts;
-      (*ctx.report)["outline_tail_skipped"] = tail_skipped;
-      (*ctx.report)["tail_orders_tried"] = orders.size();
-      (*ctx.report)["tail_order"] = best_order;
-      (*ctx.report)["page_width_trials"] = widths.size() * orders.size() + extra.size();
-      (*ctx.report)["page_width_refined"] = refined;
-      // where the page area goes: UV area / rasterised outlines / outlines dilated by the gutter
-      long long outline = 0, padded = 0;
-      for (const auto& p : profiles)
-        if (!p.empty()) {
-          outline += p[0].outline_cells;
-          padded += p[0].cells;
-        }
-      if (outline > 0) {
-        (*ctx.report)["outline_texels"] = outline;
-        (*ctx.report)["padded_outline_texels"] = padded;
+      (*ctx.report)["tail_charts"] = best.tail_charts;
+      (*ctx.report)["outline_tail_skipped"] = best.tail_skipped;
+      (*ctx.report)["tail_orders_tried"] = best.orders;
+      (*ctx.report)["tail_order"] = best.order;
+      (*ctx.report)["page_width_trials"] = best.width_trials;
+      (*ctx.report)["page_width_refined"] = best.refined;
+      (*ctx.report)["free_trial_kept"] = freed;
+      size_t aligned = 0;
+      for (const PackChart& c : best.in.charts) aligned += c.block_aligned && !c.faces.empty() ? 1 : 0;
+      (*ctx.report)["charts_block_aligned"] = aligned;
+      if (best.outline > 0) {
+        (*ctx.report)["outline_texels"] = best.outline;
+        (*ctx.report)["padded_outline_texels"] = best.padded;
       }
     }
   }

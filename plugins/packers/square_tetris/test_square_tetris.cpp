@@ -205,7 +205,7 @@ TEST(PackersSquareTetris, TailOrdersKeepTheSmallestPacking) {
     for (const auto& p : r.ctx.layout.pages) s += static_cast<double>(p.width) * p.height;
     return s;
   };
-  int other_wins = 0;
+  int other_wins = 0, shuffle_wins = 0;
   for (uint32_t seed : {1u, 2u, 3u, 4u}) {
     std::vector<std::vector<Vec2>> polys;
     auto next = [&](int lo, int hi) {
@@ -237,8 +237,18 @@ TEST(PackersSquareTetris, TailOrdersKeepTheSmallestPacking) {
       EXPECT_LT(area(*all), area(*box_only));
       ++other_wins;
     }
+    // Shuffled orders: 6 more orders tried, never a larger page; the same orders on every run.
+    auto shuffled = run_packer(kName, polygon_mesh(polys, 4096), {{"order_shuffles", 6}});
+    expect_valid_layout(*shuffled, 4);
+    EXPECT_EQ(shuffled->report.at("tail_orders_tried").get<int>(), 9);
+    EXPECT_LE(area(*shuffled), area(*all));
+    if (area(*shuffled) < area(*all)) ++shuffle_wins;
+    auto again = run_packer(kName, polygon_mesh(polys, 4096), {{"order_shuffles", 6}});
+    EXPECT_EQ(again->ctx.layout.wedge_uv, shuffled->ctx.layout.wedge_uv);
   }
   EXPECT_GE(other_wins, 1);
+  std::printf("shuffled orders won on %d of 4 sets\n", shuffle_wins);
+  EXPECT_GE(shuffle_wins, 1);
 }
 
 TEST(PackersSquareTetris, WidthRefineKeepsTheSmallestPackingAndStopsBeyondTheTailLimit) {
@@ -401,4 +411,38 @@ TEST(PackersSquareTetris, BlockGridMustDividePageMultiple) {
   EXPECT_THROW(run_packer(kName, polygon_mesh(polys, 64), {{"block_grid", 8}, {"page_multiple", 12}}), std::exception);
   auto run = run_packer(kName, polygon_mesh(polys, 64), {{"block_grid", 8}, {"page_multiple", 16}});
   expect_valid_layout(*run, 4);
+}
+
+TEST(PackersSquareTetris, FreeTrialFreesAPartlyExactChartWhenThatSavesPageArea) {
+  // Chart 0: a 400 x 12 strip at 45 degrees (two triangles). A "merger" moved its corner 1 by a
+  // quarter texel: triangle (0, 1, 2) is no longer grid-exact, triangle (0, 2, 3) is (half the
+  // area: exact under exact_fraction 0.25, so only quarter turns: a ~292 x 292 box). Freed
+  // (exact_fraction 1), it turns to its 400 x 12 rectangle: far less page area, so the free trial
+  // keeps that packing; with free_trial_gain 1 (off) the chart stays exact.
+  const double c = std::sqrt(0.5);
+  const Vec2 o(500.3, 400.7), d(c, c), n(-c, c);
+  const std::vector<std::vector<Vec2>> polys = {{o, o + 400 * d, o + 400 * d + 12 * n, o + 12 * n},
+                                                {{50, 50}, {80, 50}, {80, 80}, {50, 80}},
+                                                {{100, 50}, {120, 50}, {120, 90}, {100, 90}}};
+  auto edit = [](Atlas& a) {
+    for (size_t f = 0; f < a.face_chart.size(); ++f)
+      if (a.face_chart[f] == 0) {
+        a.wedge_uv[static_cast<size_t>(a.face_wedge[f][1])] += Vec2(0.25, -0.1);  // corner 1 of the first triangle
+        break;
+      }
+  };
+  auto freed = run_packer(kName, polygon_mesh(polys, 1024), json::object(), edit);
+  expect_valid_layout(*freed, 4);
+  EXPECT_TRUE(freed->report.at("free_trial_kept").get<bool>());
+  EXPECT_EQ(freed->report.at("charts_rotated_free").get<int>(), 1);
+  auto kept = run_packer(kName, polygon_mesh(polys, 1024), {{"free_trial_gain", 1.0}}, edit);
+  expect_valid_layout(*kept, 4);
+  EXPECT_FALSE(kept->report.at("free_trial_kept").get<bool>());
+  EXPECT_EQ(kept->report.at("charts_exact").get<int>(), 3);
+  const auto mp = [](const PackRun& r) { return r.report.at("page_megapixels").get<double>(); };
+  EXPECT_LT(mp(*freed), 0.5 * mp(*kept));
+  // Fully exact charts (nothing partly resampled): no trial.
+  auto plain = run_packer(kName, polygon_mesh(polys, 1024));
+  EXPECT_FALSE(plain->report.at("free_trial_kept").get<bool>());
+  EXPECT_EQ(plain->report.at("charts_exact").get<int>(), 3);
 }
