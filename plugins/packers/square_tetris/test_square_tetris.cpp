@@ -386,9 +386,10 @@ TEST(PackersSquareTetris, BlockGridPutsExactChartsOnTheInputBlockGrid) {
   auto polys = random_polygons(rng, 160, 3, 70, 1003);
   for (size_t i = 0; i < polys.size(); i += 3)
     for (Vec2& p : polys[i]) p += Vec2(0.37, 0.61);  // off the texel grid: fractional anchors
-  const json opts = {{"tail_side", 40}, {"width_trials", 3}};
+  const json opts = {{"tail_side", 40}, {"width_trials", 3}, {"block_grid", 0}};
   json grid = opts;
   grid["block_grid"] = 8;
+  grid["block_grid_max_cost"] = 1.0;  // keep the aligned packing whatever its area
   for (int gutter : {2, 4}) {
     SCOPED_TRACE("gutter " + std::to_string(gutter));
     json o = grid;
@@ -400,17 +401,34 @@ TEST(PackersSquareTetris, BlockGridPutsExactChartsOnTheInputBlockGrid) {
     EXPECT_EQ(std::count(on.begin(), on.end(), true), static_cast<long>(on.size()));
     EXPECT_GT(run->report.at("outline_drops").get<int>(), 0);
     EXPECT_LT(run->report.at("tail_charts").get<size_t>(), on.size());  // some rectangles too
+    EXPECT_TRUE(run->report.at("block_grid_kept").get<bool>());
   }
   auto off = run_packer(kName, polygon_mesh(polys, 1003), opts);
   const auto on = charts_on_block_grid(*off, 8);
   EXPECT_LT(std::count(on.begin(), on.end(), true), static_cast<long>(on.size()) / 2);
 }
 
-TEST(PackersSquareTetris, BlockGridMustDividePageMultiple) {
-  const std::vector<std::vector<Vec2>> polys = {{{0, 0}, {10, 0}, {10, 10}, {0, 10}}};
-  EXPECT_THROW(run_packer(kName, polygon_mesh(polys, 64), {{"block_grid", 8}, {"page_multiple", 12}}), std::exception);
-  auto run = run_packer(kName, polygon_mesh(polys, 64), {{"block_grid", 8}, {"page_multiple", 16}});
-  expect_valid_layout(*run, 4);
+TEST(PackersSquareTetris, BlockGridTrialKeepsTheSmallerPackingAndNeedsWholeBlocks) {
+  // Default options (block_grid 8, max cost 0): the aligned packing is kept only when it needs no
+  // more page area than the other; never a larger page than without the grid. Page sides that are
+  // not whole blocks (page_multiple 12) give no trial.
+  std::mt19937 rng(9);
+  const auto polys = random_polygons(rng, 120, 3, 50, 1024);
+  auto area = [](const PackRun& r) {
+    double s = 0;
+    for (const auto& p : r.ctx.layout.pages) s += static_cast<double>(p.width) * p.height;
+    return s;
+  };
+  auto off = run_packer(kName, polygon_mesh(polys, 1024), {{"block_grid", 0}});
+  auto trial = run_packer(kName, polygon_mesh(polys, 1024));
+  expect_valid_layout(*trial, 4);
+  EXPECT_LE(area(*trial), area(*off));
+  const auto on = charts_on_block_grid(*trial, 8);
+  const long aligned = std::count(on.begin(), on.end(), true);
+  EXPECT_EQ(trial->report.at("block_grid_kept").get<bool>(), aligned == static_cast<long>(on.size()));
+  auto odd = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 12}, {"block_grid_max_cost", 1.0}});
+  expect_valid_layout(*odd, 4);
+  EXPECT_FALSE(odd->report.at("block_grid_kept").get<bool>());
 }
 
 TEST(PackersSquareTetris, FreeTrialFreesAPartlyExactChartWhenThatSavesPageArea) {
