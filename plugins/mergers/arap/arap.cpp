@@ -13,6 +13,11 @@ namespace {
 
 class ArapMerger final : public Merger {
  public:
+  void set_options(const Options& o) override {
+    Stage::set_options(o);
+    if (o.get_bool("untangle") && o.get_string("solver") == "ceres")
+      throw StageError("mergers.arap: untangle = true needs solver = \"eigen\" (the Ceres solver has no injectivity repair)");
+  }
   static StageInfo info() {
     StageInfo i;
     i.name = "mergers.arap";
@@ -30,6 +35,10 @@ class ArapMerger final : public Merger {
         opt_int("arap_iterations", 10, "ARAP iterations per merge (local/global steps, or Ceres LM steps)").range(1, 1000));
     i.options.push_back(
         opt_double("arap_tolerance", 1e-6, "Stop when the ARAP energy drops by less than this fraction").range(0, 1));
+    i.options.push_back(opt_bool("untangle", false,
+                                 "When the local/global steps end with inverted triangles, untangle the free region "
+                                 "(Garanzha et al. 2021) and go on with steps that never turn a triangle over (eigen "
+                                 "solver only)"));
     i.create = [] { return std::make_unique<ArapMerger>(); };
     return i;
   }
@@ -49,6 +58,8 @@ class ArapMerger final : public Merger {
       merge::ArapSettings s;
       s.iterations = iterations;
       s.tolerance = tolerance;
+      s.untangle = options().get_bool("untangle");
+      s.singular_value_floor = mo.min_singular_value;
       merge::ArapSolver solver(s);
       merge::run_merge_stage(ctx, info().name, mo, solver);
     }

@@ -183,6 +183,84 @@ TEST_P(ArapSolvers, ReportsInvertedTrianglesItCannotFix) {
   EXPECT_EQ(q.x, start);  // nothing free: nothing moved
 }
 
+// The injectivity repair on a fan checked by hand: one free vertex c joined to a pinned pentagon
+// with a notch, P0 (0,0), P1 (4,0), P2 (4,4), P3 (2,1), P4 (0,4) (counter-clockwise). c sees every
+// edge, i.e. no fan triangle (c, Pi, Pi+1) is inverted, exactly inside the triangle (4/3,0), (8/3,0),
+// (2,1) under the notch (left of P2->P3: 3x - 2y > 4; left of P3->P4: 3x + 2y < 8; y > 0). The rest
+// shapes are the fan of a regular pentagon of radius 2 around its centre, which pulls c to the middle
+// of the polygon, above the notch: plain local/global steps end with triangles (c, P2, P3) and
+// (c, P3, P4) inverted, the repair moves c under the notch.
+LocalProblem notched_fan() {
+  LocalProblem p;
+  p.x = {Vec2(2, 2.5), Vec2(0, 0), Vec2(4, 0), Vec2(4, 4), Vec2(2, 1), Vec2(0, 4)};
+  p.num_free = 1;
+  std::vector<Vec2> rest{Vec2(0, 0)};
+  for (int i = 0; i < 5; ++i) {
+    const double a = -1.5 * 3.141592653589793 / 2 + 2 * 3.141592653589793 * i / 5;  // P0 at bottom left
+    rest.emplace_back(2 * std::cos(a), 2 * std::sin(a));
+  }
+  for (int i = 0; i < 5; ++i) p.tri.push_back({0, 1 + i, 1 + (i + 1) % 5});
+  set_rest(p, rest);
+  return p;
+}
+
+TEST(ArapRepair, PlainStepsLeaveTheNotchedFanInverted) {
+  LocalProblem p = notched_fan();
+  const SolveResult r = make_solver("eigen", 10, 1e-6)->solve(p);
+  EXPECT_FALSE(r.ok);
+  EXPECT_FALSE(r.repaired);
+  EXPECT_GT(count_inverted(p), 0);
+  EXPECT_GT(p.x[0].y(), 1.0);  // above the notch
+}
+
+TEST(ArapRepair, UntangleMovesTheFreeVertexUnderTheNotch) {
+  LocalProblem p = notched_fan();
+  ArapSettings s;
+  s.untangle = true;
+  const std::vector<Vec2> pinned(p.x.begin() + 1, p.x.end());
+  const SolveResult r = ArapSolver(s).solve(p);
+  EXPECT_TRUE(r.ok) << r.failure;
+  EXPECT_TRUE(r.repaired);
+  EXPECT_EQ(count_inverted(p), 0);
+  const Vec2 c = p.x[0];
+  EXPECT_GT(3 * c.x() - 2 * c.y(), 4);
+  EXPECT_LT(3 * c.x() + 2 * c.y(), 8);
+  EXPECT_GT(c.y(), 0);
+  EXPECT_EQ(std::vector<Vec2>(p.x.begin() + 1, p.x.end()), pinned);  // pinned corners untouched
+  // The energy reported is the final one, and the flip-free steps never went above the untangled start.
+  EXPECT_NEAR(r.energy, arap_energy(p), 1e-12);
+}
+
+TEST(ArapRepair, FlipFreeStepsKeepTheSingularValueFloor) {
+  // With a floor, no triangle whose smaller singular value was at least the floor after untangling
+  // goes below it during the flip-free steps.
+  LocalProblem p = notched_fan();
+  ArapSettings s;
+  s.untangle = true;
+  s.singular_value_floor = 0.2;
+  LocalProblem q = p;
+  ASSERT_TRUE(untangle(q));
+  std::vector<double> before;
+  for (size_t t = 0; t < q.tri.size(); ++t) before.push_back(signed_singular_values_2x2(deformation_gradient(q, t))[1]);
+  const SolveResult r = ArapSolver(s).solve(p);
+  ASSERT_TRUE(r.ok) << r.failure;
+  for (size_t t = 0; t < p.tri.size(); ++t)
+    if (before[t] >= 0.2) {
+      EXPECT_GE(signed_singular_values_2x2(deformation_gradient(p, t))[1], 0.2) << t;
+    }
+}
+
+TEST(ArapRepair, UntangleRefusesAnInvertedTriangleWithoutFreeCorner) {
+  LocalProblem p = notched_fan();
+  p.x[0] = Vec2(2, 0.5);  // valid fan
+  p.tri.push_back({1, 3, 2});  // P0, P2, P1: clockwise, all pinned
+  p.rest_inv.push_back(Mat2::Identity());
+  p.weight.push_back(1);
+  const std::vector<Vec2> start = p.x;
+  EXPECT_FALSE(untangle(p));
+  EXPECT_EQ(p.x, start);
+}
+
 INSTANTIATE_TEST_SUITE_P(Both, ArapSolvers, ::testing::Values("eigen", "ceres"),
                          [](const ::testing::TestParamInfo<std::string>& i) { return i.param; });
 
@@ -285,6 +363,16 @@ TEST(ArapOptions, SolverIsAValidatedEnum) {
   EXPECT_THROW(default_options(*info, {{"solver", "Ceres"}}), std::invalid_argument);
   EXPECT_THROW(default_options(*info, {{"solver", 1}}), std::invalid_argument);
   EXPECT_THROW(default_options(*info, {{"arap_iterations", 0}}), std::invalid_argument);
+}
+
+TEST(ArapOptions, UntangleNeedsTheEigenSolver) {
+  Registry& r = Registry::instance();
+  r.load_plugins();
+  const StageInfo* info = r.find("mergers.arap");
+  ASSERT_NE(info, nullptr);
+  std::unique_ptr<Stage> stage = info->create();
+  EXPECT_NO_THROW(stage->set_options(default_options(*info, {{"untangle", true}})));
+  EXPECT_THROW(stage->set_options(default_options(*info, {{"untangle", true}, {"solver", "ceres"}})), StageError);
 }
 
 }  // namespace

@@ -9,9 +9,23 @@
 
 namespace texdefrag::merge {
 
+/// Limits of untangle().
+struct UntangleSettings {
+  int outer_iterations = 20;  ///< eps updates (Garanzha et al. 2021's outer loop)
+  int inner_iterations = 50;  ///< L-BFGS steps per eps
+};
+
 struct ArapSettings {
   int iterations = 10;          ///< local/global iterations, >= 1
   double tolerance = 1e-6;      ///< stop when the energy drops by less than this fraction
+  /// When the local/global steps end with inverted triangles: untangle() the free region, then run
+  /// `iterations` local/global steps whose every step stops short of turning a triangle over
+  /// (max_injective_step), so the result is flip-free. SolveResult::repaired tells it happened.
+  bool untangle = false;
+  /// Those flip-free steps also keep every triangle whose smaller singular value is at least this at
+  /// least this (the merge's `min_singular_value`; 0 = no such limit).
+  double singular_value_floor = 0;
+  UntangleSettings untangling;
 };
 
 /// Local/global ARAP solver. Stateless between problems.
@@ -25,6 +39,15 @@ class ArapSolver final : public LocalSolver {
  private:
   ArapSettings s_;
 };
+
+/// Moves p's free positions until no triangle of p has det F <= 0, by minimising the foldover-free
+/// energy of Garanzha et al., "Foldover-free maps in 50 lines of code" (SIGGRAPH 2021): per triangle
+/// (|F|^2 + det F^2 + 1) / (2 chi(det F, eps)), chi(D, eps) = (D + sqrt(eps^2 + D^2)) / 2 (shape and area
+/// terms weighted 1:1; the paper weights area 1/128),
+/// area-weighted, by L-BFGS, with eps shrinking as the most inverted triangle recovers. Returns true
+/// (positions moved, every det F > 0) or false (positions as given: an inverted triangle has no free
+/// corner, or the limits of `s` were reached). Returns true at once when nothing is inverted.
+bool untangle(LocalProblem& p, const UntangleSettings& s = {});
 
 /// Area-weighted mean ARAP energy sum w ||F - R(F)||^2 / sum w of p at its current positions.
 double arap_energy(const LocalProblem& p);

@@ -180,6 +180,7 @@ struct Move {
   std::vector<int> free_w;                 ///< free region: free wedges, nearest first
   std::vector<int> prob_faces;             ///< solve: faces of the local problem
   bool solved = false;                     ///< solve: the solver reported a usable solution
+  bool repaired = false;                   ///< solve: the solver's injectivity repair ran (SolveResult)
   std::vector<int> changed;                ///< faces whose shape changed beyond the rigid motion
   std::vector<double> new_err;             ///< checks: weighted ARAP error of each changed face
   double new_sum = 0;                      ///< checks: the global weighted error sum after the move
@@ -244,6 +245,15 @@ class Engine {
   /// when it settles a move evaluated ahead).
   bool over_budget(const Lane& L, double new_sum) const {
     return L.global_check ? weight_sum_ > 0 && new_sum / weight_sum_ > opt_.global_bound : new_sum > L.err_max;
+  }
+  /// "global_distortion" when over_budget, or when the move's solve needed the injectivity repair
+  /// and, under the global check, new_sum exceeds repaired_global_share of the budget; else nullptr.
+  const char* budget_refusal(const Lane& L, double new_sum, bool repaired) const {
+    if (over_budget(L, new_sum)) return "global_distortion";
+    if (repaired && L.global_check && weight_sum_ > 0 &&
+        new_sum / weight_sum_ > opt_.repaired_global_share * opt_.global_bound)
+      return "global_distortion";
+    return nullptr;
   }
   /// Step 3: wedges within alpha * dmax of the welded ones (Dijkstra over UV lengths), nearest first.
   void free_region(Move& mv);

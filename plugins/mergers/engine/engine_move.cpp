@@ -359,7 +359,13 @@ void Engine::solve(Move& mv) {
   L.free_total += lp.num_free;
   ++L.free_count;
   const auto t0 = Clock::now();
-  mv.solved = solver_.solve(lp).ok;
+  const SolveResult res = solver_.solve(lp);
+  mv.solved = res.ok;
+  mv.repaired = res.repaired;
+  if (res.repaired) {
+    ++L.rep.repairs_tried;
+    if (res.ok) ++L.rep.repairs_untangled;
+  }
   L.rep.optimisation_seconds += seconds_since(t0);
   for (int i = 0; i < lp.num_free; ++i) {
     const int w = mv.free_w[static_cast<size_t>(i)];
@@ -518,9 +524,12 @@ const char* Engine::check_distortion(Move& mv) {
     lw += rest_w_[static_cast<size_t>(f)];
   }
   if (lw > 0 && lsum / lw > opt_.local_bound) return "local_distortion";
+  // A repaired solve is a costly weld (flip-free only after untangling): in a region's lane of the
+  // first pass it must be cheap; globally it may only spend the first part of the budget (budget_refusal).
+  if (mv.repaired && L.region >= 0 && lw > 0 && lsum / lw > opt_.repaired_local_bound) return "local_distortion";
   mv.new_sum = L.err_sum + delta;
   mv.budget_checked = true;
-  return over_budget(L, mv.new_sum) ? "global_distortion" : nullptr;
+  return budget_refusal(L, mv.new_sum, mv.repaired);
 }
 
 void Engine::load_before(const Lane& L, Before& b) const {
@@ -754,6 +763,7 @@ const char* Engine::check_triangles(const Move& mv) {
 void Engine::commit(Move& mv) {
   Lane& L = *mv.lane;
   if (mv.mirrored) ++L.rep.accepted_mirrored;
+  if (mv.repaired) ++L.rep.repairs_accepted;
   if (mv.self) {
     ++L.rep.cuts_closed;
     L.rep.cut_edges_closed += mv.seam_edges.size();

@@ -479,6 +479,9 @@ void add_counters(MergeReport& to, const MergeReport& from) {
   to.accepted_mirrored += from.accepted_mirrored;
   for (const auto& [k, v] : from.rejected) to.rejected[k] += v;
   to.fan_target_moves += from.fan_target_moves;
+  to.repairs_tried += from.repairs_tried;
+  to.repairs_untangled += from.repairs_untangled;
+  to.repairs_accepted += from.repairs_accepted;
   to.cuts_attempted += from.cuts_attempted;
   to.cuts_closed += from.cuts_closed;
   to.cut_edges_closed += from.cut_edges_closed;

@@ -185,9 +185,9 @@ bool Engine::settle(Speculation& s, std::string& reason, Lane& L) {
     // note: check_distortion computes L.err_sum + delta; the speculation's lane had err_sum 0, so its
     // new_sum is delta itself and this sum is the same double.
     const double new_sum = L.err_sum + s.mv.new_sum;
-    if (over_budget(L, new_sum)) {
+    if (const char* why = budget_refusal(L, new_sum, s.mv.repaired)) {
       if (ok) rollback(s.lane);
-      reason = "global_distortion";
+      reason = why;
       return false;
     }
     s.mv.new_sum = new_sum;

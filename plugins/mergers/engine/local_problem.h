@@ -40,6 +40,9 @@ struct SolveResult {
   int iterations = 0;      ///< outer iterations run
   double energy = 0;       ///< final area-weighted mean energy of the optimiser's own measure
   std::string failure;     ///< why ok is false (one phrase), empty otherwise
+  /// The optimiser's plain steps ended with inverted triangles and an injectivity repair ran (and
+  /// removed them when ok is true).
+  bool repaired = false;
 };
 
 /// A UV optimiser used by the merge engine (mergers.optcuts, mergers.arap).

@@ -40,6 +40,15 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
                  "along its most compressed direction) falls below this: no near-collapsed, smeared triangles (0: off, "
                  "the M-method's and the paper's behaviour)")
           .range(0, 1),
+      opt_double("repaired_local_bound", 0.025,
+                 "Where the global bound is not checked per move (the first pass with regions), reject a merge whose "
+                 "solve needed the injectivity repair (mergers.arap's untangle) when its free region's ARAP error "
+                 "exceeds this")
+          .range(0, 1e6),
+      opt_double("repaired_global_share", 0.5,
+                 "Reject a merge whose solve needed the injectivity repair when the global ARAP distortion after it "
+                 "exceeds this share of global_bound")
+          .range(0, 1),
       opt_int("max_merges", 100000000, "Stop after this many accepted merges").at_least(0),
       opt_int("max_attempts", 3,
               "Attempts per chart pair; a rejected pair is retried only after one of its charts changed")
@@ -83,6 +92,8 @@ MergeOptions merge_options_from(const Options& o) {
   m.global_bound = o.get_double("global_bound");
   m.local_bound = o.get_double("local_bound");
   m.min_singular_value = o.get_double("min_singular_value");
+  m.repaired_local_bound = o.get_double("repaired_local_bound");
+  m.repaired_global_share = o.get_double("repaired_global_share");
   m.max_merges = o.get_int("max_merges");
   m.max_attempts = static_cast<int>(o.get_int("max_attempts"));
   m.max_free_vertices = static_cast<int>(o.get_int("max_free_vertices"));
@@ -129,6 +140,9 @@ json MergeReport::to_json() const {
   j["rejected"] = rej;
   j["rejected_total"] = total;
   j["fan_target_moves"] = fan_target_moves;
+  j["repairs_tried"] = repairs_tried;
+  j["repairs_untangled"] = repairs_untangled;
+  j["repairs_accepted"] = repairs_accepted;
   j["cut_edges_in"] = cut_edges_in;
   j["cuts_attempted"] = cuts_attempted;
   j["cuts_closed"] = cuts_closed;

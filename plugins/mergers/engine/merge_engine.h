@@ -50,6 +50,12 @@ struct MergeOptions {
   double global_bound = 0.025;  ///< reject when the global area-weighted ARAP distortion exceeds this
   double local_bound = 0.5;     ///< reject when the free region's area-weighted ARAP error exceeds this
   double min_singular_value = 0;  ///< reject when a reshaped triangle's smaller singular value is below this (0: off)
+  /// A move whose solve needed the injectivity repair (SolveResult::repaired) is refused as
+  /// `local_distortion` above this in a lane without the global check (the first pass with regions),
+  /// and as `global_distortion` when the global distortion after it exceeds repaired_global_share x
+  /// global_bound (docs/mergers.md step 7).
+  double repaired_local_bound = 0.025;
+  double repaired_global_share = 0.5;
   long long max_merges = 100000000;  ///< stop after this many accepted merges (>= 0)
   int max_attempts = 3;         ///< attempts per chart pair (a rejected pair is retried when a chart changes)
   int max_free_vertices = 2000; ///< cap on the free region (nearest wedges first)
@@ -102,6 +108,9 @@ struct MergeReport {
   size_t second_pass_speculation_used = 0;  ///< of them, used when their turn came (the rest were dropped)
   std::map<std::string, size_t> rejected;  ///< by reason
   size_t fan_target_moves = 0;   ///< moves whose solve used fan targets (fan_targets)
+  /// Injectivity repair (mergers.arap's `untangle`): solves that ended with inverted triangles and
+  /// were repaired, of those the ones left without any, and the moves then accepted.
+  size_t repairs_tried = 0, repairs_untangled = 0, repairs_accepted = 0;
   size_t cut_edges_in = 0;       ///< self-seam edges (both sides in one chart) when closing started
   size_t cuts_attempted = 0;     ///< closing moves tried (close_cuts)
   size_t cuts_closed = 0;        ///< closing moves accepted

@@ -202,7 +202,10 @@ TEST(MergeEngineCuts, FanTargetsCloseAnOverfullBoundaryFan) {
     // note: a converged solve: from the 400-degree start, the default 10 local/global steps leave the
     // fan at 369 degrees (fan_overlap still); 500 reach the targets' 356.4.
     test::Run run(overfull_fan());
-    ArapSolver solver(ArapSettings{500, 1e-14});
+    ArapSettings settings;
+    settings.iterations = 500;
+    settings.tolerance = 1e-14;
+    ArapSolver solver(settings);
     detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver);
     engine.setup();
     struct {
