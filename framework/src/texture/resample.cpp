@@ -1154,25 +1154,57 @@ void block_mean(FillBlock& b, bool known_only, float mean[4]) {
 
 /// Harmonic fill of the block's unwritten texels: each becomes the mean of its 4 neighbours inside
 /// the block (kHarmonicSweeps Gauss-Seidel sweeps from the known texels' mean); written texels stay.
+/// The unwritten texels and their neighbours (left, right, up, down: the order of the sums) are
+/// listed once, so a sweep is a pass over that list.
+template <int C>
 void harmonic_fill(FillBlock& b) {
+  constexpr int kMax = kFillBlock * kFillBlock;
+  int texel[kMax], nb[kMax][4], count[kMax];
+  int U = 0;
+  for (int y = 0; y < b.h; ++y)
+    for (int x = 0; x < b.w; ++x) {
+      const int t = y * b.w + x;
+      if (b.known[t]) continue;
+      int n = 0;
+      if (x > 0) nb[U][n++] = t - 1;
+      if (x + 1 < b.w) nb[U][n++] = t + 1;
+      if (y > 0) nb[U][n++] = t - b.w;
+      if (y + 1 < b.h) nb[U][n++] = t + b.w;
+      texel[U] = t;
+      count[U++] = n;
+    }
   float mean[4];
   block_mean(b, true, mean);
-  for (int t = 0; t < b.w * b.h; ++t)
-    if (!b.known[t]) std::copy(mean, mean + b.C, &b.v[t * b.C]);
+  for (int i = 0; i < U; ++i) std::copy(mean, mean + C, &b.v[texel[i] * C]);
   for (int sweep = 0; sweep < kHarmonicSweeps; ++sweep)
-    for (int y = 0; y < b.h; ++y)
-      for (int x = 0; x < b.w; ++x) {
-        if (b.known[y * b.w + x]) continue;
-        float acc[4] = {0, 0, 0, 0};
-        int n = 0;
-        const int nb[4][2] = {{x - 1, y}, {x + 1, y}, {x, y - 1}, {x, y + 1}};
-        for (const auto& q : nb) {
-          if (q[0] < 0 || q[1] < 0 || q[0] >= b.w || q[1] >= b.h) continue;
-          for (int c = 0; c < b.C; ++c) acc[c] += b.at(q[0], q[1])[c];
-          ++n;
-        }
-        for (int c = 0; c < b.C; ++c) b.at(x, y)[c] = acc[c] / static_cast<float>(n);
-      }
+    for (int i = 0; i < U; ++i) {
+      float acc[C] = {};
+      for (int k = 0; k < count[i]; ++k)
+        for (int c = 0; c < C; ++c) acc[c] += b.v[nb[i][k] * C + c];
+      for (int c = 0; c < C; ++c) b.v[texel[i] * C + c] = acc[c] / static_cast<float>(count[i]);
+    }
+}
+
+/// Fills block (bx, by) of the page (see fill_blocks).
+void fill_block(Image& img, const std::vector<uint8_t>& state, int bx, int by) {
+  FillBlock b = read_block(img, state, bx, by);
+  if (b.num_known == b.w * b.h) return;
+  if (b.num_known == 0) {
+    float mean[4];
+    block_mean(b, false, mean);
+    for (int t = 0; t < b.w * b.h; ++t) std::copy(mean, mean + b.C, &b.v[t * b.C]);
+  } else {
+    switch (b.C) {
+      case 1: harmonic_fill<1>(b); break;
+      case 2: harmonic_fill<2>(b); break;
+      case 3: harmonic_fill<3>(b); break;
+      default: harmonic_fill<4>(b); break;
+    }
+  }
+  for (int y = 0; y < b.h; ++y)
+    for (int x = 0; x < b.w; ++x)
+      if (!b.known[y * b.w + x])
+        for (int c = 0; c < b.C; ++c) img.at(bx + x, by + y)[c] = to_byte(b.at(x, y)[c]);
 }
 
 /// Fill for block-transform coders (ResampleOptions::fill_blocks), after the gutter fill: per 8 x 8
@@ -1181,24 +1213,14 @@ void harmonic_fill(FillBlock& b) {
 /// written ones inside the block (the smoothest continuation: fewer high frequencies for the coder
 /// to pay for than pull-push's, which blends colours from outside the block). Written texels are
 /// never changed; every filled value is an average of values already on the page (MIP-mapping
-/// still sees chart colours around charts).
-void fill_blocks(Image& img, const std::vector<uint8_t>& state) {
-  for (int by = 0; by < img.height; by += kFillBlock)
-    for (int bx = 0; bx < img.width; bx += kFillBlock) {
-      FillBlock b = read_block(img, state, bx, by);
-      if (b.num_known == b.w * b.h) continue;
-      if (b.num_known == 0) {
-        float mean[4];
-        block_mean(b, false, mean);
-        for (int t = 0; t < b.w * b.h; ++t) std::copy(mean, mean + b.C, &b.v[t * b.C]);
-      } else {
-        harmonic_fill(b);
-      }
-      for (int y = 0; y < b.h; ++y)
-        for (int x = 0; x < b.w; ++x)
-          if (!b.known[y * b.w + x])
-            for (int c = 0; c < b.C; ++c) img.at(bx + x, by + y)[c] = to_byte(b.at(x, y)[c]);
-    }
+/// still sees chart colours around charts). Rows of blocks run on up to `threads` threads: a block
+/// reads and writes only its own texels, so the page does not depend on the thread count.
+void fill_blocks(Image& img, const std::vector<uint8_t>& state, int threads) {
+  const size_t rows = static_cast<size_t>((img.height + kFillBlock - 1) / kFillBlock);
+  parallel_for(rows, threads, [&](size_t r) {
+    const int by = static_cast<int>(r) * kFillBlock;
+    for (int bx = 0; bx < img.width; bx += kFillBlock) fill_block(img, state, bx, by);
+  });
 }
 
 /// Dilation: texels up to `width` steps (8-neighbourhood) from covered texels take the average of
@@ -1371,7 +1393,7 @@ void render_page(const PageTask& task, const JobSource& source, const std::vecto
     case GutterFill::Dilate: dilate(out, cv.state, opt.dilate_width); break;
     case GutterFill::PullPush: pull_push(out, cv.state); break;
   }
-  if (opt.fill_blocks && opt.fill == GutterFill::PullPush) fill_blocks(out, cv.state);
+  if (opt.fill_blocks && opt.fill == GutterFill::PullPush) fill_blocks(out, cv.state, threads);
   prog.tick(n / kFillTexelsPerUnit);
 }
 
