@@ -29,6 +29,7 @@ int run_production_command(const PipelineConfig& config, const std::string& inpu
       std::fprintf(stderr, "[%zu/%zu] FAILED %s\n", i + 1, p.tasks.size(), row["error"].get<std::string>().c_str());
       return;
     }
+    if (!report.is_null()) print_warnings(report, t.relative);
     if (quiet || report.is_null()) return;
     const auto& in = report["input_stats"];
     const auto& out = report["output_stats"];

@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,13 @@ namespace texdefrag::cli {
 /// an argument after it (`run --set a.b=1 in.obj -o out`) is never taken as another value.
 inline CLI::Option* add_set_option(CLI::App* sub, std::vector<std::string>& sets, const std::string& help) {
   return sub->add_option("--set", sets, help)->allow_extra_args(false);
+}
+/// Prints a run report's "warnings" (pipeline.h) to stderr, one line each, after `prefix` (a
+/// model's name in a production or tileset; "" for one model). Printed even with --quiet.
+inline void print_warnings(const nlohmann::json& report, const std::string& prefix) {
+  if (!report.contains("warnings")) return;
+  for (const auto& w : report["warnings"])
+    std::fprintf(stderr, "warning: %s%s\n", prefix.empty() ? "" : (prefix + ": ").c_str(), w.get<std::string>().c_str());
 }
 CLI::App* add_eval_command(CLI::App& app, int& exit_code);     // cmd_eval.cpp (eval/metrics)
 CLI::App* add_bench_command(CLI::App& app, int& exit_code);    // cmd_bench.cpp (eval/bench)

@@ -146,6 +146,7 @@ int main(int argc, char** argv) {
       ro.progress = make_progress(quiet);
       const json report = run_pipeline(cfg, ro);
       if (print_report) std::cout << report.dump(2) << "\n";
+      cli::print_warnings(report, "");
       if (!quiet) {
         const auto& in = report["input_stats"];
         const auto& out = report["output_stats"];

@@ -23,6 +23,7 @@ int run_tileset_cli(const PipelineConfig& config, const std::string& tileset, co
     const bool one = summary.contains("reports") && summary["reports"].size() == 1;
     std::cout << (one ? summary["reports"][0] : summary).dump(2) << "\n";
   }
+  for (const auto& m : summary["models"]) print_warnings(m, m["contents"][0].get<std::string>());
   if (!quiet) {
     size_t cin = 0, cout_ = 0;
     for (const auto& m : summary["models"]) {

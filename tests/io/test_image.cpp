@@ -4,6 +4,10 @@
 #include "io_test_util.h"
 
 #include "texdefrag/io/image.h"
+#include "texdefrag/io/model_format.h"
+#include "texdefrag/io/obj.h"
+#include "texdefrag/pipeline/pipeline.h"
+#include "texdefrag/util/paths.h"
 #include "texdefrag/testing/fixtures.h"
 
 #include <OpenImageIO/imageio.h>
@@ -338,6 +342,80 @@ TEST(ImageCodec, SixteenBitPngRoundsAsOpenImageIOForEveryValue) {
   const std::string path = dir + "/ramp16.png";
   it::write_raw_png(path, p);
   expect_same_image(read_image(path), it::oiio_read(path), path);
+}
+
+namespace {
+
+/// A grey 16-bit PNG of w x h texels with value v everywhere.
+void write_png16(const std::string& path, int w, int h, uint16_t v) {
+  it::RawPng p;
+  p.width = w;
+  p.height = h;
+  p.bit_depth = 16;
+  for (int i = 0; i < w * h; ++i) p.rows.insert(p.rows.end(), {static_cast<uint8_t>(v >> 8), static_cast<uint8_t>(v & 255)});
+  it::write_raw_png(path, p);
+}
+
+void write_oiio(const std::string& path, OIIO::TypeDesc type) {
+  const float px[4] = {0.f, 1.f, 0.5f, 0.25f};
+  auto out = OIIO::ImageOutput::create(path);
+  ASSERT_TRUE(out) << path;
+  ASSERT_TRUE(out->open(path, OIIO::ImageSpec(2, 2, 1, type)));
+  ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px));
+  ASSERT_TRUE(out->close());
+}
+
+}  // namespace
+
+TEST(ImageBits, ReadFromTheHeaderOfEveryFormat) {
+  const std::string dir = tt::temp_dir();
+  write_png16(dir + "/a16.png", 3, 2, 1000);
+  write_image(dir + "/a8.png", smooth_image(4, 4, 3), ImageFormat::Png);
+  write_image(dir + "/a8.jpg", smooth_image(16, 16, 3), ImageFormat::Jpeg);
+  write_oiio(dir + "/a16.tif", OIIO::TypeDesc::UINT16);
+  write_oiio(dir + "/a8.tif", OIIO::TypeDesc::UINT8);
+  write_oiio(dir + "/h.exr", OIIO::TypeDesc::HALF);
+  const std::vector<std::pair<std::string, int>> want = {{"a16.png", 16}, {"a8.png", 8}, {"a8.jpg", 8},
+                                                         {"a16.tif", 16}, {"a8.tif", 8}, {"h.exr", 16}};
+  for (const auto& [name, bits] : want) {
+    const std::string path = dir + "/" + name;
+    EXPECT_EQ(page_encoding_of_file(path).bits, bits) << name;
+    const std::vector<uint8_t> bytes = file_bytes(path);
+    EXPECT_EQ(image_bits_of_stream(bytes.data(), bytes.size()), bits) << name << " (memory)";
+  }
+  // A big-endian TIFF header by hand: IFD at 8 with one entry, BitsPerSample SHORT x 3 at offset 26.
+  const std::vector<uint8_t> mm = {'M', 'M', 0, 42, 0, 0, 0, 8,  0, 1,  1, 2, 0, 3, 0, 0, 0, 3, 0, 0, 0, 26,
+                                   0,   0,   0, 0,  0, 8, 0, 16, 0, 12};
+  EXPECT_EQ(image_bits_of_stream(mm.data(), mm.size()), 16);
+  // Cut headers and other formats: unknown (0), never a read past the end.
+  for (size_t n : {size_t(0), size_t(3), size_t(20), size_t(28)}) EXPECT_EQ(image_bits_of_stream(mm.data(), n), 0) << n;
+  const std::vector<uint8_t> png = file_bytes(dir + "/a16.png");
+  EXPECT_EQ(image_bits_of_stream(png.data(), 24), 0);
+  const uint8_t bmp[4] = {'B', 'M', 0, 0};
+  EXPECT_EQ(image_bits_of_stream(bmp, 4), 0);
+}
+
+TEST(ImageBits, ARunOnSixteenBitPagesSaysTheyAreWrittenWithEight) {
+  const std::string dir = tt::temp_dir();
+  TexturedMesh m = texdefrag::testing::fragmented_grid_mesh(3, 2, 64, dir + "/page.png");
+  write_png16(dir + "/page.png", 64, 64, 40000);
+  write_obj(m, dir + "/deep.obj");
+  RunOptions ro;
+  ro.input = dir + "/deep.obj";
+  ro.output_dir = dir + "/out";
+  const json report = run_pipeline(load_config(resolve_config("best")), ro);
+  EXPECT_EQ(report["input_stats"]["page_bits_max"].get<int>(), 16);
+  ASSERT_TRUE(report.contains("warnings"));
+  ASSERT_EQ(report["warnings"].size(), 1u);
+  const std::string w = report["warnings"][0].get<std::string>();
+  EXPECT_NE(w.find("page.png, 16 bits"), std::string::npos) << w;
+  EXPECT_NE(w.find("output pages have 8"), std::string::npos) << w;
+  // 8-bit pages: no warning.
+  write_image(dir + "/page.png", smooth_image(64, 64, 3), ImageFormat::Png);
+  ro.output_dir = dir + "/out8";
+  const json plain = run_pipeline(load_config(resolve_config("best")), ro);
+  EXPECT_EQ(plain["input_stats"]["page_bits_max"].get<int>(), 8);
+  EXPECT_FALSE(plain.contains("warnings"));
 }
 
 TEST(ImageCodec, JpegVariantsReadAsOpenImageIO) {

@@ -42,6 +42,7 @@ LoadedModel loaded_from(GltfModel g, const std::string& root) {
         e.jpeg_quality = estimate_jpeg_quality(s.embedded.data(), s.embedded.size());
         e.jpeg_subsampling = read_jpeg_subsampling(s.embedded.data(), s.embedded.size());
       }
+      e.bits = image_bits_of_stream(s.embedded.data(), s.embedded.size());
     }
     if (!s.replaces_ktx2.empty()) m.input_files.push_back(s.replaces_ktx2);
     m.page_encodings.push_back(e);

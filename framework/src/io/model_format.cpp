@@ -67,6 +67,73 @@ std::string sniff_image_format(const uint8_t* data, size_t size, const std::stri
   return e == "jpg" ? "jpeg" : e;
 }
 
+namespace {
+
+/// Largest BitsPerSample (tag 258) of a TIFF's first image file directory; 0 when unreadable.
+int tiff_bits(const std::function<bool(uint64_t, size_t, uint8_t*)>& read, bool le) {
+  auto u16 = [le](const uint8_t* b) { return le ? b[0] | b[1] << 8 : b[0] << 8 | b[1]; };
+  auto u32 = [le](const uint8_t* b) {
+    return le ? uint32_t(b[0]) | uint32_t(b[1]) << 8 | uint32_t(b[2]) << 16 | uint32_t(b[3]) << 24
+              : uint32_t(b[0]) << 24 | uint32_t(b[1]) << 16 | uint32_t(b[2]) << 8 | uint32_t(b[3]);
+  };
+  uint8_t b[12];
+  if (!read(4, 4, b)) return 0;
+  const uint64_t ifd = u32(b);
+  if (!read(ifd, 2, b)) return 0;
+  const int entries = u16(b);
+  for (int k = 0; k < entries && k < 4096; ++k) {
+    if (!read(ifd + 2 + 12 * static_cast<uint64_t>(k), 12, b)) return 0;
+    if (u16(b) != 258 || u16(b + 2) != 3) continue;  // BitsPerSample, SHORT
+    const uint32_t count = u32(b + 4);
+    if (count == 0 || count > 64) return 0;
+    std::vector<uint8_t> v(2 * static_cast<size_t>(count));
+    if (count <= 2) std::copy(b + 8, b + 8 + v.size(), v.begin());
+    else if (!read(u32(b + 8), v.size(), v.data())) return 0;
+    int bits = 0;
+    for (uint32_t i = 0; i < count; ++i) bits = std::max(bits, u16(&v[2 * i]));
+    return bits;
+  }
+  return 1;  // no BitsPerSample: the TIFF default, 1 bit (read as 8)
+}
+
+/// JPEG sample precision from the first SOF marker; 0 when none is found in the first 1 MB.
+int jpeg_bits(const std::function<bool(uint64_t, size_t, uint8_t*)>& read) {
+  uint64_t at = 2;
+  uint8_t b[5];
+  while (at < (1u << 20) && read(at, 4, b)) {
+    if (b[0] != 0xFF) return 0;
+    const int marker = b[1];
+    if (marker == 0xFF) { ++at; continue; }
+    const bool sof = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+    if (sof) return read(at + 4, 1, b) ? b[0] : 0;
+    if (marker == 0xD8 || (marker >= 0xD0 && marker <= 0xD7) || marker == 0x01) { at += 2; continue; }
+    at += 2 + static_cast<uint64_t>(b[2] << 8 | b[3]);
+  }
+  return 0;
+}
+
+}  // namespace
+
+int image_bits(const std::function<bool(uint64_t, size_t, uint8_t*)>& read) {
+  uint8_t h[25];
+  if (!read(0, 4, h)) return 0;
+  static const uint8_t kPng[8] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A};
+  if (h[0] == 0x89 && read(0, 25, h) && std::equal(kPng, kPng + 8, h)) return h[24];
+  if (h[0] == 0xFF && h[1] == 0xD8) return jpeg_bits(read);
+  if (h[0] == 'I' && h[1] == 'I' && h[2] == 42 && h[3] == 0) return tiff_bits(read, true);
+  if (h[0] == 'M' && h[1] == 'M' && h[2] == 0 && h[3] == 42) return tiff_bits(read, false);
+  if (h[0] == 0x76 && h[1] == 0x2F && h[2] == 0x31 && h[3] == 0x01) return 16;  // OpenEXR
+  return 0;
+}
+
+int image_bits_of_stream(const uint8_t* data, size_t size) {
+  return image_bits([data, size](uint64_t off, size_t n, uint8_t* out) {
+    if (off > size || n > size - off) return false;
+    std::copy(data + off, data + off + n, out);
+    return true;
+  });
+}
+
 PageEncoding page_encoding_of_file(const std::string& path) {
   PageEncoding enc;
   std::error_code ec;
@@ -80,6 +147,14 @@ PageEncoding page_encoding_of_file(const std::string& path) {
     enc.jpeg_quality = estimate_jpeg_quality_of_file(path);
     enc.jpeg_subsampling = read_jpeg_subsampling_of_file(path);
   }
+  in.clear();
+  enc.bits = image_bits([&in](uint64_t off, size_t n, uint8_t* out) {
+    in.seekg(static_cast<std::streamoff>(off));
+    in.read(reinterpret_cast<char*>(out), static_cast<std::streamsize>(n));
+    const bool ok = in.gcount() == static_cast<std::streamsize>(n);
+    in.clear();
+    return ok;
+  });
   return enc;
 }
 

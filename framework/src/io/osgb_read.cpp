@@ -237,6 +237,7 @@ std::vector<PageEncoding> embedded_streams(const std::string& path) {
       e.jpeg_quality = estimate_jpeg_quality(b + i, n);
       e.jpeg_subsampling = read_jpeg_subsampling(b + i, n);
     }
+    e.bits = image_bits_of_stream(b + i, n);
     out.push_back(e);
     i += n - 1;
   }

@@ -441,6 +441,7 @@ nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions
                                  {"page_bytes_in", pin},
                                  {"page_bytes_out", pout},
                                  {"time_s", report["total_time_s"]}});
+    if (report.contains("warnings")) summary["models"].back()["warnings"] = report["warnings"];
     if (!whole) summary["reports"].push_back(report);
   }
   summary["tilesets"] = ts.tilesets.size();

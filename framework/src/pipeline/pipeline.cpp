@@ -400,6 +400,29 @@ void record_input_stats(json& report, const TexturedMesh& mesh, const Topology& 
   report["input_stats"]["megapixels"] = mp;
 }
 
+/// Pages deeper than 8 bits per channel are decoded to 8 (docs/io.md "Images"), so their output
+/// pages keep 8: said in report["warnings"] (one line naming the first such page) and
+/// report["input_stats"]["page_bits_max"], never silently.
+void record_page_depth(json& report, const LoadedModel& model) {
+  std::vector<uint8_t> used(model.mesh.pages.size(), 0);
+  for (const Face& f : model.mesh.faces)
+    if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
+  int max_bits = 0;
+  size_t deep = 0, first = 0;
+  for (size_t p = 0; p < model.page_encodings.size() && p < used.size(); ++p) {
+    const int bits = model.page_encodings[p].bits;
+    max_bits = std::max(max_bits, bits);
+    if (!used[p] || bits <= 8) continue;
+    if (deep++ == 0) first = p;
+  }
+  report["input_stats"]["page_bits_max"] = max_bits;
+  if (deep == 0) return;
+  report["warnings"].push_back(
+      std::to_string(deep) + " input page(s) store more than 8 bits per channel (first: " +
+      model.mesh.pages[first].image_path + ", " + std::to_string(model.page_encodings[first].bits) +
+      " bits); pages are read at 8 bits per channel (values rounded), so the output pages have 8");
+}
+
 /// Runs one stage on ctx and checks its contract (detector: regions a partition; merger: a valid
 /// atlas adding no overlap inside a chart; packer: a valid layout adding no overlap). Returns the
 /// UV overlap pairs counted after a merger or packer (0 after a detector).
@@ -581,6 +604,7 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   // note: counted once here; after packing the framework counts again and refuses more.
   const size_t input_overlaps = uv_overlap_pairs(mesh, charts.atlas, nullptr);
   record_input_stats(report, mesh, topo, charts, input_overlaps);
+  record_page_depth(report, model);
 
   StageContext ctx;
   ctx.mesh = &mesh;

@@ -24,6 +24,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -50,6 +51,11 @@ struct PageEncoding {
   size_t bytes = 0;
   /// Chroma subsampling from the JPEG frame header; empty when not JPEG, grey or unknown.
   std::optional<JpegSubsampling> jpeg_subsampling;
+  /// Bits per channel of the stored image (PNG IHDR bit depth, JPEG SOF precision, TIFF
+  /// BitsPerSample, 16 for OpenEXR); 0 when unknown. Pages are decoded to 8 bits per channel
+  /// (docs/io.md "Images"), so a deeper page's values are rounded: the pipeline warns
+  /// (run report "warnings").
+  int bits = 0;
 };
 
 /// Format-specific state kept between read and write (the scene graph, face -> primitive maps).
@@ -165,8 +171,16 @@ std::string lower_extension(const std::string& path);
 std::string sniff_image_format(const uint8_t* data, size_t size, const std::string& name);
 
 /// The page encoding a file on disk has (format from its first bytes, JPEG quality from its DQT,
-/// chroma subsampling from its SOF).
+/// chroma subsampling from its SOF, bits per channel from its header).
 PageEncoding page_encoding_of_file(const std::string& path);
+
+/// Bits per channel an encoded image stores, from its header (PageEncoding::bits): PNG, JPEG,
+/// TIFF (both byte orders; the largest BitsPerSample of the first image), OpenEXR (16: half or
+/// float); 0 for other formats or a header that cannot be read. `read(offset, n, out)` reads n
+/// bytes at offset, false past the end; the header is read, never the pixels.
+int image_bits(const std::function<bool(uint64_t, size_t, uint8_t*)>& read);
+/// image_bits of an image held in memory.
+int image_bits_of_stream(const uint8_t* data, size_t size);
 
 /// The output page encoding for `in` (docs/io.md "Page format").
 /// image_format: "png" or "jpeg" force the format; "input" gives JPEG when every textured input page
