@@ -126,6 +126,13 @@ struct PairState {
   double penalty = 1;    ///< the M-method's penalty, doubled on each rejection
   int va = -1, vb = -1;  ///< versions of the newest queue entry of this pair
   std::string last_reason;  ///< why its last attempt was refused (empty: never refused)
+  // The seam's figures of the M-method's cost (score), kept while none of the seam's faces changed
+  // shape or chart (Engine::fshape_ <= seam_clock), its edge list kept its length and the same chart
+  // is the bigger: re-queueing every pair of a merged chart then re-scores far seams from these.
+  int seam_big = -1;          ///< the bigger chart when they were computed (-1: none kept)
+  size_t seam_edges = 0;      ///< seam edges then
+  int seam_clock = 0;         ///< Lane::shape_clock then
+  double seam_err = 0, seam_la = 0, seam_lb = 0;  ///< alignment error, UV length on a's and on b's side
 };
 
 /// The state of one merge queue and of the moves it runs: the whole atlas's (the engine's main lane),
@@ -155,6 +162,7 @@ struct Lane {
   // ---- per-move stamps and the rollback log
   int epoch = 0;       ///< stamp of the current move (per-element stamp arrays compare against it)
   int seen_stamp = 0;  ///< stamp of the current grid query
+  int shape_clock = 0; ///< commits of this lane: the stamp of Engine::fshape_ (see PairState::seam_clock)
   std::vector<std::pair<int, Vec2>> saved_uv;
   std::vector<std::pair<int, std::array<int, 3>>> saved_fw;
   int saved_small = -1;
@@ -388,6 +396,14 @@ class Engine {
 
   // ---- queue
   void refresh_planarity(int c);
+  /// After lane L committed a move of chart big whose rollback log is in `log` (L itself, or a
+  /// speculation's lane): stamps every face whose corners moved or were repointed with ++L.shape_clock.
+  void mark_shapes(Lane& L, const Lane& log, int big);
+  /// The seam figures of the M-method's cost for charts a and b (a < b; big the one fitted onto):
+  /// the mean distance of the seam's wedge pairs after the rigid fit, and its UV length on a's and b's side.
+  void seam_figures(Lane& L, int a, int big, int small, double& err, double& la, double& lb);
+  /// Whether ps's kept seam figures still hold for the seam `seam` with `big` the bigger chart.
+  bool seam_current(const PairState& ps, int big, const std::vector<int>& seam) const;
   void push_pair(Lane& L, int a, int b);
   double score(Lane& L, int a, int b, int& refusal);
   /// The M-method's exception to its short-seam refusal: true when a sequence of at most max_steps
@@ -428,7 +444,8 @@ class Engine {
   /// What try_merge(e.a, e.b, reason, L) does, for an entry drain popped: with speculation on (the
   /// second pass, spec_width_ > 1), a live speculation of e is settled, else e is evaluated in a batch
   /// with up to spec_width_ - 1 entries further down the queue (speculations), side by side.
-  bool merge_entry(const Entry& e, std::string& reason, Lane& L);
+  /// `log`: the lane whose rollback log holds the move (for mark_shapes).
+  bool merge_entry(const Entry& e, std::string& reason, Lane& L, const Lane*& log);
   void start_speculation(Lane& L);
   void stop_speculation(Lane& L);
   /// Evaluates the batch's entries side by side, each on its slot's lane (batch[0]: the entry drain
@@ -446,7 +463,13 @@ class Engine {
   bool near_chart(int x, int y) const {
     return x == y || charts_[static_cast<size_t>(x)].adj.count(y) != 0;
   }
+  class BatchPool;
+  struct DeletePool {
+    void operator()(BatchPool* p) const;  // (engine_speculate.cpp, where BatchPool is complete)
+  };
+  std::unique_ptr<BatchPool, DeletePool> pool_;  ///< the threads of run_batch (while speculating_)
   std::vector<std::unique_ptr<Speculation>> spec_;  ///< slots (live or free)
+
   int spec_width_ = 1;       ///< entries evaluated per batch
   bool speculating_ = false; ///< drain runs the main lane with speculation
   int stamp_high_ = 0;       ///< the highest epoch or seen stamp any lane used so far
@@ -479,6 +502,7 @@ class Engine {
   // ---- per-move scratch with epoch stamps (Lane::epoch; each element is only stamped by its region's lane)
   std::vector<int> wstamp_, wmoved_, wrep_, wvisit_, wdone_, wfan_, fstamp_, fchanged_;
   std::vector<int> fsmall_;  ///< face was in the move's smaller chart (stamp Lane::epoch)
+  std::vector<int> fshape_;  ///< Lane::shape_clock of the last commit that moved or repointed a corner of face f
   std::vector<double> wdist_;
   std::vector<int> wlocal_, wlocal_stamp_;  ///< solve: local index of a wedge in the problem, its stamp
   // ---- per-chart triangle grids (cell size tri_cell_, shared by all charts)

@@ -11,6 +11,7 @@
 #include <limits>
 #include <numeric>
 #include <set>
+#include <stdexcept>
 #include <thread>
 
 namespace texdefrag::merge::detail {
@@ -218,6 +219,7 @@ void Engine::setup_seams_and_grids() {
   fstamp_.assign(nf, 0);
   fchanged_.assign(nf, 0);
   fsmall_.assign(nf, 0);
+  fshape_.assign(nf, 0);
   // Triangle grids: cell = twice the mean longest UV edge of the textured faces.
   fowner_.assign(nf, -1);
   fcells_.assign(nf, {1, 1, 0, 0});
@@ -369,14 +371,7 @@ bool Engine::island_lookahead(int a, int b, int max_steps) const {
   return false;
 }
 
-double Engine::score(Lane& L, int a, int b, int& refusal) {
-  ChartInfo& A = C(a);
-  ChartInfo& B = C(b);
-  refusal = 0;
-  if (opt_.priority == Priority::Planarity)
-    return std::max(A.planarity, B.planarity) * std::max(A.uv_area, B.uv_area);
-  // M-method cost: err * min(B_a/L_a, B_b/L_b) * min(area_a, area_b) * penalty, smaller first.
-  const int big = A.uv_area >= B.uv_area ? a : b, small = big == a ? b : a;
+void Engine::seam_figures(Lane& L, int a, int big, int small, double& err, double& la, double& lb) {
   std::vector<std::pair<int, int>>& pairs = L.score_pairs;
   pair_points(big, small, pairs);
   std::vector<Vec2>& p = L.score_p;
@@ -388,21 +383,49 @@ double Engine::score(Lane& L, int a, int b, int& refusal) {
     p.push_back(uv(ws));
   }
   const Rigid2 m = seam_mirrored(big, small) ? fit_improper(p, q) : fit_rigid(p, q);
-  double err = 0;
+  err = 0;
   for (size_t i = 0; i < p.size(); ++i) err += (m(p[i]) - q[i]).norm();
   err /= static_cast<double>(std::max<size_t>(1, p.size()));
-  double la = 0, lb = 0;
-  size_t nedges = 0;
-  for (int ei : A.adj[b]) {
+  la = lb = 0;
+  const int b = big == a ? small : big;
+  for (int ei : C(a).adj[b]) {
     const Edge& ed = topo_.edges[static_cast<size_t>(ei)];
     for (int i = 0; i < 2; ++i) {
       const EdgeIncidence& in = topo_.edge_faces[static_cast<size_t>(ed.first_incidence + i)];
       (chart(in.face) == a ? la : lb) += edge_uv_len(in.face, in.local);
     }
-    ++nedges;
   }
+}
+
+double Engine::score(Lane& L, int a, int b, int& refusal) {
+  ChartInfo& A = C(a);
+  ChartInfo& B = C(b);
+  refusal = 0;
+  if (opt_.priority == Priority::Planarity)
+    return std::max(A.planarity, B.planarity) * std::max(A.uv_area, B.uv_area);
+  // M-method cost: err * min(B_a/L_a, B_b/L_b) * min(area_a, area_b) * penalty, smaller first.
+  const int big = A.uv_area >= B.uv_area ? a : b, small = big == a ? b : a;
+  PairState& ps = L.pair_state(a, b);
+  const std::vector<int>& seam = A.adj[b];
+  const size_t nedges = seam.size();
+  if (!seam_current(ps, big, seam)) {
+    seam_figures(L, a, big, small, ps.seam_err, ps.seam_la, ps.seam_lb);
+    ps.seam_big = big;
+    ps.seam_edges = nedges;
+    ps.seam_clock = L.shape_clock;
+  } else {
+    ++L.rep.seam_figures_kept;
+    if (opt_.check_kept_seams) {
+      double e, x, y;
+      seam_figures(L, a, big, small, e, x, y);
+      if (e != ps.seam_err || x != ps.seam_la || y != ps.seam_lb)
+        throw std::logic_error("merge engine: the kept seam figures of charts " + std::to_string(a) + " and " +
+                               std::to_string(b) + " differ from the seam's");
+    }
+  }
+  const double err = ps.seam_err, la = ps.seam_la, lb = ps.seam_lb;
   const double ra = la > 0 ? A.border / la : 1e30, rb = lb > 0 ? B.border / lb : 1e30;
-  const double cost = err * std::min(ra, rb) * std::min(A.uv_area, B.uv_area) * L.pair_state(a, b).penalty;
+  const double cost = err * std::min(ra, rb) * std::min(A.uv_area, B.uv_area) * ps.penalty;
   // note: the M-method program refuses when the mean pair distance exceeds 2 x the mean of the seam's
   // two UV lengths (its matching threshold times the whole seam), not 2 x one edge.
   const double seam_len = 0.5 * (la + lb);
@@ -413,6 +436,25 @@ double Engine::score(Lane& L, int a, int b, int& refusal) {
   else if (err > 2 * mean_seam)
     refusal = 2;
   return -cost;
+}
+
+bool Engine::seam_current(const PairState& ps, int big, const std::vector<int>& seam) const {
+  if (ps.seam_big != big || ps.seam_edges != seam.size()) return false;
+  for (int ei : seam) {
+    const Edge& ed = topo_.edges[static_cast<size_t>(ei)];
+    for (int i = 0; i < 2; ++i)
+      if (fshape_[static_cast<size_t>(topo_.edge_faces[static_cast<size_t>(ed.first_incidence + i)].face)] > ps.seam_clock)
+        return false;
+  }
+  return true;
+}
+
+void Engine::mark_shapes(Lane& L, const Lane& log, int big) {
+  // Every corner a move changes is in its rollback log: a wedge moved (saved_uv: the faces of the
+  // merged chart still using it) or a corner repointed (saved_fw: every face whose wedges changed).
+  const int t = ++L.shape_clock;
+  for (const auto& [w, p] : log.saved_uv) faces_of_wedge(w, big, [&](int f, int) { fshape_[static_cast<size_t>(f)] = t; });
+  for (const auto& [f, fw] : log.saved_fw) fshape_[static_cast<size_t>(f)] = t;
 }
 
 void Engine::push_pair(Lane& L, int a, int b) {
@@ -488,6 +530,7 @@ void add_counters(MergeReport& to, const MergeReport& from) {
   for (const auto& [k, v] : from.cut_rejected) to.cut_rejected[k] += v;
   to.optimisation_seconds += from.optimisation_seconds;
   to.check_seconds += from.check_seconds;
+  to.seam_figures_kept += from.seam_figures_kept;
 }
 
 MergeReport Engine::run(const Progress& progress) {
@@ -635,6 +678,7 @@ void Engine::join_lanes(std::vector<Lane>& lanes) {
     }
     main_.epoch = std::max(main_.epoch, L.epoch);
     main_.seen_stamp = std::max(main_.seen_stamp, L.seen_stamp);
+    main_.shape_clock = std::max(main_.shape_clock, L.shape_clock);
     stale = stale || L.stale_adjacency;
   }
   if (lanes.size() == 1 && lanes[0].global_check) {
@@ -663,6 +707,7 @@ void Engine::start_second_pass(double local_bound) {
   // Every adjacent pair is queued again under the new order (pairs that used up max_attempts stay out).
   for (auto& [key, ps] : main_.pairs) {
     ps.va = ps.vb = -1;
+    ps.seam_big = -1;  // rebuild_adjacency may have reordered the seams' edges (la, lb add in their order)
     if (!first_step) ps.attempts = 0;  // a later step has a looser local bound: try again
   }
   for (int c = 0; c < static_cast<int>(charts_.size()); ++c) {
@@ -734,9 +779,11 @@ void Engine::drain(Lane& L, const Progress& progress, double base, double span) 
     std::vector<int> fresh;
     for (const auto& [n, edges] : C(small0).adj)
       if (n != big0 && !C(big0).adj.count(n)) fresh.push_back(n);
-    if (merge_entry(e, reason, L)) {
+    const Lane* log = nullptr;
+    if (merge_entry(e, reason, L, log)) {
       ++L.rep.accepted;
       const int big = big0;
+      mark_shapes(L, *log, big);
       ChartInfo& B = C(big);
       // Re-queue every pair of the merged chart when its area grew by a quarter since the last
       // full refresh (scores move little before that; stale entries are re-scored when popped);

@@ -131,6 +131,7 @@ json MergeReport::to_json() const {
   j["close_cuts_seconds"] = close_cuts_seconds;
   j["second_pass_speculated"] = second_pass_speculated;
   j["second_pass_speculation_used"] = second_pass_speculation_used;
+  j["seam_figures_kept"] = seam_figures_kept;
   json rej = json::object();
   size_t total = 0;
   for (const auto& [k, v] : rejected) {

@@ -76,6 +76,9 @@ struct MergeOptions {
   /// 0 = thread_count(), 1 = one at a time. Not a stage option (the result is the same for any
   /// value); tests set it to run the speculation on one thread.
   int second_pass_batch = 0;
+  /// Tests: every time score() re-uses a seam's kept figures (PairState::seam_err), compute them
+  /// again and throw std::logic_error when they differ.
+  bool check_kept_seams = false;
 };
 
 /// The option declarations shared by every merger built on the engine (name, default, range, help).
@@ -106,6 +109,7 @@ struct MergeReport {
   double close_cuts_seconds = 0;   ///< wall time of closing cuts (close_cuts)
   size_t second_pass_speculated = 0;  ///< second-pass moves evaluated ahead of their turn, side by side
   size_t second_pass_speculation_used = 0;  ///< of them, used when their turn came (the rest were dropped)
+  size_t seam_figures_kept = 0;  ///< pairs re-scored from their seam's kept figures (M-method order)
   std::map<std::string, size_t> rejected;  ///< by reason
   size_t fan_target_moves = 0;   ///< moves whose solve used fan targets (fan_targets)
   /// Injectivity repair (mergers.arap's `untangle`): solves that ended with inverted triangles and

@@ -488,6 +488,29 @@ TEST(MergeEngine, SpeculativeSecondPassGivesTheSerialAtlas) {
   }
 }
 
+TEST(MergeEngine, KeptSeamFiguresAreTheSeamsOwn) {
+  // Under the M-method's order every pair of a merged chart is re-queued; a seam none of whose faces
+  // changed since it was last scored is re-scored from its kept figures. With check_kept_seams each
+  // re-use computes them again and throws when they differ: one region, then squares of regions with
+  // the second pass (figures kept through the first pass, then dropped when it starts).
+  for (bool regions : {false, true}) {
+    test::Run run(test::distorted_fragmented_grid(20, 16, 0.08));
+    MergeOptions o;
+    o.priority = Priority::MMethod;
+    o.second_pass = regions ? SecondPass::AcrossRegions : SecondPass::None;
+    o.second_pass_seam_refusal = false;
+    o.check_kept_seams = true;
+    ArapSolver solver;
+    MergeReport r;
+    const std::vector<int> reg = regions ? squares(run.mesh, 4.0) : std::vector<int>{};
+    ASSERT_NO_THROW(r = run_merges(run.mesh, run.topo, run.ctx.atlas, reg, o, solver, {})) << "regions " << regions;
+    EXPECT_GT(r.seam_figures_kept, 100u) << "regions " << regions;
+    EXPECT_GT(r.accepted, 100u) << "regions " << regions;
+    std::printf("regions %d: %zu merges, %zu seams re-scored from kept figures\n", regions ? 1 : 0, r.accepted,
+                r.seam_figures_kept);
+  }
+}
+
 TEST(MergeEngine, RegionsOfTheWrongSizeAreAnError) {
   test::Run run(texdefrag::testing::fragmented_grid_mesh(2, 2, 1024, "unused.png"));
   ArapSolver solver;
