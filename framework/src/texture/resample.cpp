@@ -722,6 +722,34 @@ struct FitCells {
   }
 };
 
+/// Narrows [mlo, mhi] to the cells of row q (grid y in [q, q + 1]) whose Gauss points can lie in
+/// the triangle g (grid coordinates): the x-range where the triangle meets the row's two Gauss
+/// lines, widened by one cell on each side, so rounding never drops a cell whose point the exact
+/// inside test accepts (cells outside the range have no point inside: skipping them changes
+/// nothing). Returns false when no cell remains.
+bool row_cells(const std::array<Vec2, 3>& g, double q, long long& mlo, long long& mhi) {
+  double xl = std::numeric_limits<double>::infinity(), xr = -xl;
+  for (const double gy : kGauss) {
+    const double py = q + gy;
+    for (int k = 0; k < 3; ++k) {
+      const Vec2& a = g[static_cast<size_t>(k)];
+      const Vec2& b = g[static_cast<size_t>((k + 1) % 3)];
+      // note: a tolerance in y too: the inside test may accept a point a rounding error outside.
+      if (py < std::min(a.y(), b.y()) - 1e-6 || py > std::max(a.y(), b.y()) + 1e-6) continue;
+      const double dy = b.y() - a.y();
+      const double t = dy == 0 ? 0 : std::clamp((py - a.y()) / dy, 0.0, 1.0);
+      const double x = a.x() + t * (b.x() - a.x());
+      xl = std::min({xl, x, dy == 0 ? b.x() : x});
+      xr = std::max({xr, x, dy == 0 ? b.x() : x});
+    }
+  }
+  if (!(xl <= xr)) return false;
+  // Gauss point m + kGauss[a] in [xl, xr]  =>  m in [xl - kGauss[1], xr - kGauss[0]].
+  mlo = std::max(mlo, static_cast<long long>(std::floor(xl - kGauss[1])) - 1);
+  mhi = std::min(mhi, static_cast<long long>(std::floor(xr - kGauss[0])) + 1);
+  return mlo <= mhi;
+}
+
 /// Adds face `job`'s share of the fit's right-hand side: at each Gauss point of the window's cells
 /// inside the face (and not yet taken by an earlier face: the point's bit in cells.mask), the input
 /// read bilinearly through the face map, weighted by the bilinear weights of the cell's unknown
@@ -761,8 +789,10 @@ void add_face_to_rhs(const FaceJob& job, const std::vector<const Image*>& inputs
     return true;
   };
   const double Hi = in.height;
-  for (long long q = q0; q <= q1; ++q)
-    for (long long m = m0; m <= m1; ++m) {
+  for (long long q = q0; q <= q1; ++q) {
+    long long mlo = m0, mhi = m1;
+    if (!row_cells(g, static_cast<double>(q), mlo, mhi)) continue;
+    for (long long m = mlo; m <= mhi; ++m) {
       int ids[4];
       bool touches = false;
       for (int k = 0; k < 4; ++k) {
@@ -791,6 +821,7 @@ void add_face_to_rhs(const FaceJob& job, const std::vector<const Image*>& inputs
           }
         }
     }
+  }
 }
 
 /// The fit's normal matrix K = sum over active cells of G^T M G + lambda I, on the fitted texels.
