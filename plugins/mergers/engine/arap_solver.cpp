@@ -146,7 +146,7 @@ SolveResult ArapSolver::solve(LocalProblem& p) {
   }
   r.iterations = run_steps(p, sys, s_.iterations, s_.tolerance, false, 0, r.energy);
   r.ok = count_inverted(p) == 0;
-  if (!r.ok && s_.untangle) {
+  if (!r.ok && s_.untangle && p.repair_usable) {
     // Injectivity repair: untangle, then lower the ARAP energy again without turning anything over.
     r.repaired = true;
     if (untangle(p, s_.untangling)) {

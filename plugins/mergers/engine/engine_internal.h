@@ -254,6 +254,11 @@ class Engine {
   bool over_budget(const Lane& L, double new_sum) const {
     return L.global_check ? weight_sum_ > 0 && new_sum / weight_sum_ > opt_.global_bound : new_sum > L.err_max;
   }
+  /// Whether lane L has spent repaired_global_share of the budget already (global check only): a
+  /// move whose solve needs the injectivity repair is then refused as `flip` without the repair.
+  bool repair_spent(const Lane& L) const {
+    return L.global_check && weight_sum_ > 0 && L.err_sum / weight_sum_ > opt_.repaired_global_share * opt_.global_bound;
+  }
   /// "global_distortion" when over_budget, or when the move's solve needed the injectivity repair
   /// and, under the global check, new_sum exceeds repaired_global_share of the budget; else nullptr.
   const char* budget_refusal(const Lane& L, double new_sum, bool repaired) const {

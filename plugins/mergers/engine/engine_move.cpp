@@ -356,6 +356,7 @@ void Engine::solve(Move& mv) {
     lp.rest_inv.push_back(it != target.end() ? it->second : rest_inv_[static_cast<size_t>(f)]);
     lp.weight.push_back(rest_w_[static_cast<size_t>(f)]);
   }
+  lp.repair_usable = !repair_spent(L);
   L.free_total += lp.num_free;
   ++L.free_count;
   const auto t0 = Clock::now();

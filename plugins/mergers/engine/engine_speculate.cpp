@@ -294,6 +294,15 @@ bool Engine::settle(Speculation& s, std::string& reason, Lane& L) {
   bool ok = s.in_atlas;
   s.in_atlas = false;
   reason = s.reason;
+  if (s.mv.repaired && repair_spent(L)) {
+    // On L the solve would have skipped the injectivity repair and been refused as a flip; its
+    // counters would not show the repair either.
+    if (ok) rollback(s.lane);
+    --L.rep.repairs_tried;
+    if (s.mv.solved) --L.rep.repairs_untangled;
+    reason = "flip";
+    return false;
+  }
   if (s.mv.budget_checked) {
     // note: check_distortion computes L.err_sum + delta; the speculation's lane had err_sum 0, so its
     // new_sum is delta itself and this sum is the same double.

@@ -32,6 +32,9 @@ struct LocalProblem {
   std::vector<Mat2> rest_inv;
   /// Per triangle: weight = input UV area (texels^2), > 0.
   std::vector<double> weight;
+  /// Whether the caller can use a solution that needed an injectivity repair (SolveResult::repaired);
+  /// when false an optimiser skips the repair (the caller would refuse its result).
+  bool repair_usable = true;
 };
 
 /// What an optimiser did.
