@@ -31,9 +31,17 @@
 #include <queue>
 #include <thread>
 
+#include <time.h>
+
 namespace texdefrag::merge::detail {
 
 namespace {
+/// CPU time of the calling thread.
+double thread_cpu_seconds() {
+  timespec t{};
+  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t) != 0) return 0;
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
 /// Queue entries the look-ahead examines per batch, best first.
 constexpr size_t kLookahead = 256;
 /// Speculations standing at once, at most (each holds its rollback log and, if it passed, its move
@@ -275,11 +283,22 @@ void Engine::run_batch(std::vector<Speculation*>& batch) {
     s->reason.clear();
     s->in_atlas = false;
   }
+  std::vector<double> cpu(batch.size(), 0);
   pool_->run(batch.size(), [&](size_t i) {
+    const double c0 = thread_cpu_seconds();
     Speculation& s = *batch[i];
     s.mv = Move();
     s.in_atlas = evaluate_merge(s.e.a, s.e.b, s.reason, s.lane, s.mv);
+    cpu[i] = thread_cpu_seconds() - c0;
   });
+  // On free cores the batch takes at least its longest move and its total over the threads.
+  double sum = 0, longest = 0;
+  for (double c : cpu) {
+    sum += c;
+    longest = std::max(longest, c);
+  }
+  const double threads = static_cast<double>(std::min<size_t>(batch.size(), static_cast<size_t>(thread_count())));
+  rep_.second_pass_side_cpu_seconds += sum - std::max(longest, sum / threads);
   for (const Speculation* s : batch) stamp_high_ = std::max({stamp_high_, s->lane.epoch, s->lane.seen_stamp});
   rep_.second_pass_speculated += batch.size() - 1;
 }

@@ -132,6 +132,8 @@ json MergeReport::to_json() const {
   j["second_pass_speculated"] = second_pass_speculated;
   j["second_pass_speculation_used"] = second_pass_speculation_used;
   j["seam_figures_kept"] = seam_figures_kept;
+  j["second_pass_cpu_seconds"] = second_pass_cpu_seconds;
+  j["second_pass_side_cpu_seconds"] = second_pass_side_cpu_seconds;
   json rej = json::object();
   size_t total = 0;
   for (const auto& [k, v] : rejected) {

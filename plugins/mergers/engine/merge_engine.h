@@ -73,7 +73,7 @@ struct MergeOptions {
   bool fan_targets = false;
   double fan_margin = 0.01;  ///< fan targets close at 2 pi (1 - fan_margin)
   /// Queue entries the second pass evaluates side by side (docs/mergers.md, "Parallel second pass"):
-  /// 0 = thread_count(), 1 = one at a time. Not a stage option (the result is the same for any
+  /// 0 = twice thread_count() (1 with one thread), 1 = one at a time. Not a stage option (the result is the same for any
   /// value); tests set it to run the speculation on one thread.
   int second_pass_batch = 0;
   /// Tests: every time score() re-uses a seam's kept figures (PairState::seam_err), compute them
@@ -109,6 +109,9 @@ struct MergeReport {
   double close_cuts_seconds = 0;   ///< wall time of closing cuts (close_cuts)
   size_t second_pass_speculated = 0;  ///< second-pass moves evaluated ahead of their turn, side by side
   size_t second_pass_speculation_used = 0;  ///< of them, used when their turn came (the rest were dropped)
+  /// CPU time of the second pass (every thread), and of it the CPU time of moves evaluated beside
+  /// each batch's longest one: on free cores the pass would take about the difference.
+  double second_pass_cpu_seconds = 0, second_pass_side_cpu_seconds = 0;
   size_t seam_figures_kept = 0;  ///< pairs re-scored from their seam's kept figures (M-method order)
   std::map<std::string, size_t> rejected;  ///< by reason
   size_t fan_target_moves = 0;   ///< moves whose solve used fan targets (fan_targets)
