@@ -6,6 +6,10 @@
 // - whole real tiles (the engine with each solver, M-method order, defaults);
 // - the first pass's regions side by side (docs/mergers.md, "Parallel first pass"): t016_L19 with one
 //   region per dominant normal axis, best.json's merger options, 1 and 2 threads.
+// - the local problems best.json's merger hands to its solver on t016_L19 (normal-axis regions, one
+//   thread), solved again by the solver best.json configures (injectivity repair on, floor 0.2): all
+//   of them and those whose repair runs, with a checksum of every solution (the label), so a faster
+//   solver can be shown to give the same bits.
 // Run: bench_mergers_arap [--benchmark_filter=...]. Real data absent: the cases skip with an error.
 #include "arap_solver.h"
 #include "ceres_arap_solver.h"
@@ -20,6 +24,9 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <map>
 #include <memory>
@@ -188,6 +195,93 @@ std::vector<int> normal_axis_regions(const TexturedMesh& m) {
   return r;
 }
 
+/// best.json's merger options (the stage's defaults for the rest).
+MergeOptions best_json_merge_options() {
+  MergeOptions o;
+  o.priority = Priority::MMethod;
+  o.second_pass = SecondPass::AcrossRegions;
+  o.second_pass_local_bound = 0.1;
+  o.second_pass_seam_refusal = false;
+  o.min_singular_value = 0.2;
+  o.close_cuts = true;
+  return o;
+}
+
+/// best.json's solver: ARAP with the injectivity repair, floor = min_singular_value.
+ArapSolver best_json_solver() {
+  ArapSettings a;
+  a.untangle = true;
+  a.singular_value_floor = 0.2;
+  return ArapSolver(a);
+}
+
+/// The local problems of a best.json merge of t016_L19 (or of the OBJ named by the environment
+/// variable BENCH_ARAP_MODEL), normal-axis regions, one thread, in the order they were posed.
+const std::vector<LocalProblem>& best_json_problems() {
+  static const std::vector<LocalProblem> probs = [] {
+    const char* model = std::getenv("BENCH_ARAP_MODEL");
+    static const TexturedMesh other = model ? read_obj(model) : TexturedMesh{};
+    const TexturedMesh& m = model ? other : tile(kT016L19);
+    if (m.faces.empty()) return std::vector<LocalProblem>{};
+    const Topology topo = build_topology(m);
+    Atlas at = build_charts(m, topo).atlas;
+    ArapSolver solver = best_json_solver();
+    RecordingSolver rec(solver);
+    set_thread_count(1);
+    run_merges(m, topo, at, normal_axis_regions(m), best_json_merge_options(), rec, {});
+    set_thread_count(0);
+    return std::move(rec.problems);
+  }();
+  return probs;
+}
+
+/// FNV-1a over the bytes of `n` values at `v`, continuing from h.
+template <class T>
+std::uint64_t fnv1a(std::uint64_t h, const T* v, size_t n) {
+  const auto* b = reinterpret_cast<const unsigned char*>(v);
+  for (size_t i = 0; i < n * sizeof(T); ++i) h = (h ^ b[i]) * 1099511628211ULL;
+  return h;
+}
+
+// Argument: 0 = every problem, 1 = those whose plain steps end with inverted triangles (the repair
+// runs). Label: checksum of every solution's positions, ok flag, iterations and energy.
+void BM_BestJsonProblems(benchmark::State& state) {
+  const auto& all = best_json_problems();
+  if (all.empty()) return state.SkipWithError("shared data absent (t016_L19)");
+  ArapSolver solver = best_json_solver();
+  std::vector<const LocalProblem*> probs;
+  for (const LocalProblem& p : all) {
+    if (state.range(0) == 1) {
+      LocalProblem q = p;
+      if (!solver.solve(q).repaired) continue;
+    }
+    probs.push_back(&p);
+  }
+  std::uint64_t h = 1469598103934665603ULL;
+  double seconds = 0, repaired = 0;
+  for (auto _ : state) {
+    h = 1469598103934665603ULL;
+    repaired = 0;
+    const std::clock_t t0 = std::clock();
+    for (const LocalProblem* p : probs) {
+      LocalProblem q = *p;
+      const SolveResult r = solver.solve(q);
+      h = fnv1a(h, q.x.data(), q.x.size());
+      const double fig[3] = {r.ok ? 1.0 : 0.0, static_cast<double>(r.iterations), r.energy};
+      h = fnv1a(h, fig, 3);
+      repaired += r.repaired ? 1 : 0;
+    }
+    seconds += static_cast<double>(std::clock() - t0) / CLOCKS_PER_SEC;
+  }
+  const double n = static_cast<double>(probs.size());
+  state.counters["problems"] = n;
+  state.counters["repaired"] = repaired;
+  state.counters["cpu_us_per_problem"] = 1e6 * seconds / (n * static_cast<double>(state.iterations()));
+  char label[32];
+  std::snprintf(label, sizeof label, "sum %016llx", static_cast<unsigned long long>(h));
+  state.SetLabel(label);
+}
+
 // Argument = threads. Counters: CPU seconds (all threads), wall seconds of each pass, second-pass moves
 // evaluated side by side and used (docs/mergers.md, "Parallel second pass"), lanes, charts out (the
 // same for any count).
@@ -241,6 +335,7 @@ BENCHMARK(BM_TileT015Eigen)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_TileT015Ceres)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_TileT016L19Eigen)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_TileT016L19Ceres)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_BestJsonProblems)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_RegionLanesT016L19)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 }  // namespace

@@ -30,11 +30,33 @@ struct ArapSystem {
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
 };
 
+/// What one pass over a problem's triangles at the current positions gives (evaluate()).
+struct Evaluation {
+  double energy = 0;  ///< arap_energy() at these positions
+  int inverted = 0;   ///< count_inverted() at these positions
+};
+
+/// Per-thread scratch of the solver, kept between problems to spare allocations (the solver object
+/// keeps no state, so solve() stays reentrant). Everything in it is overwritten before it is read.
+struct Scratch {
+  ArapSystem sys;
+  std::vector<Eigen::Triplet<double>> trip;
+  std::vector<Eigen::Vector4d> res;  ///< per triangle: vec(F - R(F)) (row-major) at the last evaluate()
+  std::vector<double> smallest;      ///< per triangle: smaller signed singular value, when asked for
+  Eigen::VectorXd g, step;
+  std::vector<Vec2> base;
+};
+
+Scratch& scratch() {
+  thread_local Scratch s;
+  return s;
+}
+
 /// Builds sys for p; false when K is singular.
-bool build_system(const LocalProblem& p, ArapSystem& sys) {
+bool build_system(const LocalProblem& p, ArapSystem& sys, std::vector<Eigen::Triplet<double>>& trip) {
   const int n = p.num_free;
   sys.D.resize(p.tri.size());
-  std::vector<Eigen::Triplet<double>> trip;
+  trip.clear();
   trip.reserve(p.tri.size() * 36);
   for (size_t t = 0; t < p.tri.size(); ++t) {
     sys.D[t] = gradient_operator(p.rest_inv[t]);
@@ -55,30 +77,43 @@ bool build_system(const LocalProblem& p, ArapSystem& sys) {
   return sys.ldlt.info() == Eigen::Success;
 }
 
-/// One local/global step's displacement of the free coordinates: local step = best rotation per
-/// triangle, global step = exact minimiser of the resulting quadratic.
-Eigen::VectorXd local_global_step(const LocalProblem& p, const ArapSystem& sys) {
-  const int n = p.num_free;
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(2 * n);
+/// One pass over p's triangles at the current positions: the ARAP energy and inverted count (the
+/// same operations, in the same order, as arap_energy() and count_inverted(), so the same bits), each
+/// triangle's residual vec(F - R(F)) for the next local step into sc.res, and with `smallest` each
+/// triangle's smaller signed singular value into sc.smallest.
+Evaluation evaluate(const LocalProblem& p, Scratch& sc, bool smallest) {
+  Evaluation ev;
+  double e = 0, w = 0;
+  sc.res.resize(p.tri.size());
+  if (smallest) sc.smallest.resize(p.tri.size());
   for (size_t t = 0; t < p.tri.size(); ++t) {
     const Mat2 F = deformation_gradient(p, t);
     const Mat2 Rm = closest_rotation(F);
-    Eigen::Vector4d res;
-    res << F(0, 0) - Rm(0, 0), F(0, 1) - Rm(0, 1), F(1, 0) - Rm(1, 0), F(1, 1) - Rm(1, 1);
+    e += p.weight[t] * (F - Rm).squaredNorm();
+    w += p.weight[t];
+    if (F.determinant() <= 0) ++ev.inverted;
+    sc.res[t] << F(0, 0) - Rm(0, 0), F(0, 1) - Rm(0, 1), F(1, 0) - Rm(1, 0), F(1, 1) - Rm(1, 1);
+    if (smallest) sc.smallest[t] = signed_singular_values_2x2(F)[1];
+  }
+  ev.energy = w > 0 ? e / w : 0;
+  return ev;
+}
+
+/// One local/global step's displacement of the free coordinates into sc.step: local step = best
+/// rotation per triangle (the residuals of the last evaluate()), global step = exact minimiser of the
+/// resulting quadratic.
+void local_global_step(const LocalProblem& p, const ArapSystem& sys, Scratch& sc) {
+  const int n = p.num_free;
+  sc.g.setZero(2 * n);
+  for (size_t t = 0; t < p.tri.size(); ++t) {
+    const Eigen::Vector4d& res = sc.res[t];
     const Eigen::Matrix<double, 6, 1> gl = p.weight[t] * sys.D[t].transpose() * res;
     for (int a = 0; a < 6; ++a) {
       const int va = p.tri[t][static_cast<size_t>(a / 2)];
-      if (va < n) g[2 * va + a % 2] += gl[a];
+      if (va < n) sc.g[2 * va + a % 2] += gl[a];
     }
   }
-  return sys.ldlt.solve(-g);
-}
-
-/// Smaller signed singular value of every triangle of p.
-std::vector<double> smallest_singular_values(const LocalProblem& p) {
-  std::vector<double> s(p.tri.size());
-  for (size_t t = 0; t < p.tri.size(); ++t) s[t] = signed_singular_values_2x2(deformation_gradient(p, t))[1];
-  return s;
+  sc.step = sys.ldlt.solve(-sc.g);
 }
 
 /// Moves p's free positions to base + t * step.
@@ -87,43 +122,49 @@ void place(LocalProblem& p, const std::vector<Vec2>& base, const Eigen::VectorXd
     p.x[static_cast<size_t>(i)] = base[static_cast<size_t>(i)] + t * Vec2(step[2 * i], step[2 * i + 1]);
 }
 
+/// The flip-free cut of sc.step (run_steps' injective rule) from base = the current positions: places
+/// p at the largest kept fraction and returns true, or leaves p at base and returns false.
+bool place_injective(LocalProblem& p, Scratch& sc, double floor) {
+  double t = std::min(1.0, 0.9 * max_injective_step(p, sc.step));
+  sc.base.assign(p.x.begin(), p.x.begin() + p.num_free);
+  const size_t checked = floor > 0 ? p.tri.size() : 0;
+  for (int h = 0; h < 12; ++h, t *= 0.5) {
+    place(p, sc.base, sc.step, t);
+    bool kept = true;
+    for (size_t k = 0; k < checked && kept; ++k)
+      kept = sc.smallest[k] < floor || signed_singular_values_2x2(deformation_gradient(p, k))[1] >= floor;
+    if (kept) return true;
+  }
+  place(p, sc.base, sc.step, 0);
+  return false;
+}
+
 /// Up to `iterations` local/global steps from p (stopping when the energy drops by less than
 /// `tolerance`). With `injective`, each step is cut to 0.9 of the largest step that turns no
 /// triangle over (max_injective_step), then halved (at most 12 times, else the steps end) until no
 /// triangle whose smaller singular value was >= `floor` goes below it. The ARAP energy still never
 /// rises: it lies under the step's convex quadratic, which falls along the whole step. Returns the
-/// steps run; `energy` ends as the final energy.
-int run_steps(LocalProblem& p, const ArapSystem& sys, int iterations, double tolerance, bool injective, double floor,
-              double& energy) {
+/// steps run; `ev` ends as the final positions' evaluation.
+int run_steps(LocalProblem& p, const ArapSystem& sys, Scratch& sc, int iterations, double tolerance, bool injective,
+              double floor, Evaluation& ev) {
+  const bool smallest = injective && floor > 0;
   int done_steps = 0;
-  energy = arap_energy(p);
+  ev = evaluate(p, sc, smallest);
   for (int it = 0; it < iterations; ++it) {
-    const Eigen::VectorXd step = local_global_step(p, sys);
-    double t = 1;
+    local_global_step(p, sys, sc);
     if (injective) {
-      t = std::min(1.0, 0.9 * max_injective_step(p, step));
-      const std::vector<double> before = floor > 0 ? smallest_singular_values(p) : std::vector<double>{};
-      const std::vector<Vec2> base(p.x.begin(), p.x.begin() + p.num_free);
-      bool kept = false;
-      for (int h = 0; h < 12 && !kept; ++h, t *= 0.5) {
-        place(p, base, step, t);
-        kept = true;
-        for (size_t k = 0; k < before.size() && kept; ++k)
-          kept = before[k] < floor || signed_singular_values_2x2(deformation_gradient(p, k))[1] >= floor;
-        if (kept) break;
-      }
-      if (!kept) {
-        place(p, base, step, 0);
+      if (!place_injective(p, sc, floor)) {
+        ev.inverted = count_inverted(p);  // note: p is back at base; counted again as before (NaN steps)
         break;
       }
     } else {
-      place(p, std::vector<Vec2>(p.x.begin(), p.x.begin() + p.num_free), step, 1);
+      sc.base.assign(p.x.begin(), p.x.begin() + p.num_free);
+      place(p, sc.base, sc.step, 1);
     }
     ++done_steps;
-    const double e = arap_energy(p);
-    const bool done = energy - e <= tolerance * std::max(energy, 1e-300);
-    energy = e;
-    if (done) break;
+    const double energy = ev.energy;
+    ev = evaluate(p, sc, smallest);
+    if (energy - ev.energy <= tolerance * std::max(energy, 1e-300)) break;
   }
   return done_steps;
 }
@@ -138,20 +179,23 @@ SolveResult ArapSolver::solve(LocalProblem& p) {
     r.energy = arap_energy(p);
     return r;
   }
-  ArapSystem sys;
-  if (!build_system(p, sys)) {
+  Scratch& sc = scratch();
+  if (!build_system(p, sc.sys, sc.trip)) {
     r.ok = false;
     r.failure = "singular ARAP system (free region without pinned vertex)";
     return r;
   }
-  r.iterations = run_steps(p, sys, s_.iterations, s_.tolerance, false, 0, r.energy);
-  r.ok = count_inverted(p) == 0;
+  Evaluation ev;
+  r.iterations = run_steps(p, sc.sys, sc, s_.iterations, s_.tolerance, false, 0, ev);
+  r.energy = ev.energy;
+  r.ok = ev.inverted == 0;
   if (!r.ok && s_.untangle && p.repair_usable) {
     // Injectivity repair: untangle, then lower the ARAP energy again without turning anything over.
     r.repaired = true;
     if (untangle(p, s_.untangling)) {
-      r.iterations += run_steps(p, sys, s_.iterations, s_.tolerance, true, s_.singular_value_floor, r.energy);
-      r.ok = count_inverted(p) == 0;
+      r.iterations += run_steps(p, sc.sys, sc, s_.iterations, s_.tolerance, true, s_.singular_value_floor, ev);
+      r.energy = ev.energy;
+      r.ok = ev.inverted == 0;
     }
   }
   if (!r.ok) r.failure = "inverted triangles after ARAP";

@@ -37,22 +37,50 @@ void set_free_positions(LocalProblem& p, const Eigen::VectorXd& v) {
   for (int i = 0; i < p.num_free; ++i) p.x[static_cast<size_t>(i)] = Vec2(v[2 * i], v[2 * i + 1]);
 }
 
+/// Per-triangle terms of the untangling energy at one point (f_eps and what its gradient needs).
+struct TriangleTerms {
+  Mat2 J;
+  double det, s, c, f;
+};
+
+/// Scratch of one untangle() call: the per-triangle terms of the point last evaluated.
+struct UntangleScratch {
+  std::vector<TriangleTerms> terms;
+  Eigen::VectorXd trial;  ///< free positions of a line-search trial
+};
+
 /// The untangling energy sum_t w_t f_eps(J_t) / sum_t w_t at p's positions, with
-/// f_eps(J) = ((1 - theta) |J|^2 + theta (det^2 + 1)) / chi(det J, eps); its gradient over the free
-/// coordinates when `grad` is given.
-double untangle_energy(const LocalProblem& p, const std::vector<Mat46>& D, double eps, Eigen::VectorXd* grad) {
+/// f_eps(J) = ((1 - theta) |J|^2 + theta (det^2 + 1)) / chi(det J, eps); keeps each triangle's terms
+/// in sc for untangle_gradient() at the same point.
+double untangle_energy(const LocalProblem& p, double eps, UntangleScratch& sc) {
   double e = 0, wsum = 0;
-  if (grad) grad->setZero(2 * p.num_free);
+  sc.terms.resize(p.tri.size());
   for (size_t t = 0; t < p.tri.size(); ++t) {
-    const Mat2 J = deformation_gradient(p, t);
-    const double det = J.determinant();
-    const double s = std::sqrt(eps * eps + det * det);
-    const double c = chi(det, eps);
-    const double N = (1 - kTheta) * J.squaredNorm() + kTheta * (det * det + 1);
-    const double f = N / c;
-    e += p.weight[t] * f;
+    TriangleTerms& q = sc.terms[t];
+    q.J = deformation_gradient(p, t);
+    q.det = q.J.determinant();
+    q.s = std::sqrt(eps * eps + q.det * q.det);
+    q.c = chi(q.det, eps);
+    const double N = (1 - kTheta) * q.J.squaredNorm() + kTheta * (q.det * q.det + 1);
+    q.f = N / q.c;
+    e += p.weight[t] * q.f;
     wsum += p.weight[t];
-    if (!grad) continue;
+  }
+  if (wsum <= 0) return 0;
+  return e / wsum;
+}
+
+/// The gradient of untangle_energy() over the free coordinates into grad, from the terms its last
+/// call kept (the point it evaluated).
+void untangle_gradient(const LocalProblem& p, const std::vector<Mat46>& D, const UntangleScratch& sc,
+                       Eigen::VectorXd& grad) {
+  double wsum = 0;
+  grad.setZero(2 * p.num_free);
+  for (size_t t = 0; t < p.tri.size(); ++t) {
+    const TriangleTerms& q = sc.terms[t];
+    const Mat2& J = q.J;
+    const double det = q.det, s = q.s, c = q.c, f = q.f;
+    wsum += p.weight[t];
     Mat2 cof;  // d det / dJ
     cof << J(1, 1), -J(1, 0), -J(0, 1), J(0, 0);
     // note: dchi/dD = chi / sqrt(eps^2 + D^2).
@@ -62,12 +90,11 @@ double untangle_energy(const LocalProblem& p, const std::vector<Mat46>& D, doubl
     const Eigen::Matrix<double, 6, 1> gl = p.weight[t] * D[t].transpose() * v;
     for (int a = 0; a < 6; ++a) {
       const int va = p.tri[t][static_cast<size_t>(a / 2)];
-      if (va < p.num_free) (*grad)[2 * va + a % 2] += gl[a];
+      if (va < p.num_free) grad[2 * va + a % 2] += gl[a];
     }
   }
-  if (wsum <= 0) return 0;
-  if (grad) *grad /= wsum;
-  return e / wsum;
+  if (wsum <= 0) return;
+  grad /= wsum;
 }
 
 double min_det(const LocalProblem& p) {
@@ -76,12 +103,16 @@ double min_det(const LocalProblem& p) {
   return m;
 }
 
-/// L-BFGS (memory 7) with Armijo backtracking on untangle_energy at a fixed eps; at most `iterations`
-/// steps. Leaves p at the best point found.
-void minimise_lbfgs(LocalProblem& p, const std::vector<Mat46>& D, double eps, int iterations) {
+/// L-BFGS (memory 7) with Armijo backtracking on untangle_energy at a fixed eps, from p's positions
+/// whose energy `e` the last untangle_energy() call gave (its terms are in sc); at most `iterations`
+/// steps. Leaves p at the best point found and returns its energy (sc's terms are then stale). The
+/// gradient is formed only at points the line search accepts (the same numbers as forming it at every
+/// trial).
+double minimise_lbfgs(LocalProblem& p, const std::vector<Mat46>& D, double eps, int iterations, double e,
+                      UntangleScratch& sc) {
   constexpr int kMemory = 7;
   Eigen::VectorXd x = free_positions(p), g, gn;
-  double e = untangle_energy(p, D, eps, &g);
+  untangle_gradient(p, D, sc, g);
   std::deque<std::pair<Eigen::VectorXd, Eigen::VectorXd>> mem;  // (s, y) pairs, newest last
   for (int it = 0; it < iterations; ++it) {
     // Two-loop recursion: d = -H g.
@@ -109,8 +140,9 @@ void minimise_lbfgs(LocalProblem& p, const std::vector<Mat46>& D, double eps, in
     double en = e;
     bool moved = false;
     for (int ls = 0; ls < 40; ++ls, step *= 0.5) {
-      set_free_positions(p, x + step * d);
-      en = untangle_energy(p, D, eps, &gn);
+      sc.trial = x + step * d;
+      set_free_positions(p, sc.trial);
+      en = untangle_energy(p, eps, sc);
       if (en <= e + 1e-4 * step * slope) {
         moved = true;
         break;
@@ -120,6 +152,7 @@ void minimise_lbfgs(LocalProblem& p, const std::vector<Mat46>& D, double eps, in
       set_free_positions(p, x);
       break;
     }
+    untangle_gradient(p, D, sc, gn);
     Eigen::VectorXd s = step * d, y = gn - g;
     x += s;
     const double rel = (e - en) / std::max(std::abs(e), 1e-300);
@@ -131,6 +164,7 @@ void minimise_lbfgs(LocalProblem& p, const std::vector<Mat46>& D, double eps, in
     }
     if (rel < 1e-9) break;
   }
+  return e;
 }
 
 }  // namespace
@@ -151,10 +185,10 @@ bool untangle(LocalProblem& p, const UntangleSettings& s) {
   for (size_t t = 0; t < p.tri.size(); ++t) D[t] = gradient_operator(p.rest_inv[t]);
   double eps = std::sqrt(1e-12 + 0.04 * dmin * dmin);
   const Eigen::VectorXd start = free_positions(p);
+  UntangleScratch sc;
   for (int outer = 0; outer < s.outer_iterations; ++outer) {
-    const double e_prev = untangle_energy(p, D, eps, nullptr);
-    minimise_lbfgs(p, D, eps, s.inner_iterations);
-    const double e = untangle_energy(p, D, eps, nullptr);
+    const double e_prev = untangle_energy(p, eps, sc);
+    const double e = minimise_lbfgs(p, D, eps, s.inner_iterations, e_prev, sc);
     dmin = min_det(p);
     if (dmin > 0) return true;
     // Garanzha et al. 2021, section 4: shrink eps with the progress made, keeping it above the

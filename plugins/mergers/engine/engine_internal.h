@@ -159,6 +159,10 @@ struct Lane {
   long long max_merges = 0;  ///< accepted merges after which this lane stops
   /// A first-pass lane left the adjacency of a chart outside its region unchanged (see commit_chart).
   bool stale_adjacency = false;
+  /// A second-pass speculation's lane evaluated while the main lane's repair budget was spent
+  /// (Engine::repair_spent of the main lane): its solves skip the injectivity repair, as the main
+  /// lane's would (engine_speculate.cpp, run_batch and merge_entry).
+  bool repair_off = false;
   // ---- per-move stamps and the rollback log
   int epoch = 0;       ///< stamp of the current move (per-element stamp arrays compare against it)
   int seen_stamp = 0;  ///< stamp of the current grid query
@@ -254,10 +258,12 @@ class Engine {
   bool over_budget(const Lane& L, double new_sum) const {
     return L.global_check ? weight_sum_ > 0 && new_sum / weight_sum_ > opt_.global_bound : new_sum > L.err_max;
   }
-  /// Whether lane L has spent repaired_global_share of the budget already (global check only): a
-  /// move whose solve needs the injectivity repair is then refused as `flip` without the repair.
+  /// Whether lane L has spent repaired_global_share of the budget already (global check only), or is
+  /// a speculation's lane with repair_off: a move whose solve needs the injectivity repair is then
+  /// refused as `flip` without the repair.
   bool repair_spent(const Lane& L) const {
-    return L.global_check && weight_sum_ > 0 && L.err_sum / weight_sum_ > opt_.repaired_global_share * opt_.global_bound;
+    return L.repair_off ||
+           (L.global_check && weight_sum_ > 0 && L.err_sum / weight_sum_ > opt_.repaired_global_share * opt_.global_bound);
   }
   /// "global_distortion" when over_budget, or when the move's solve needed the injectivity repair
   /// and, under the global check, new_sum exceeds repaired_global_share of the budget; else nullptr.
@@ -460,6 +466,10 @@ class Engine {
   void pick_lookahead(const Entry& e, std::vector<Speculation*>& batch);
   Speculation* free_slot();
   bool settle(Speculation& s, std::string& reason, Lane& L);
+  /// Whether speculation s, evaluated with its lane's repair_off, was refused for inverted triangles
+  /// that L would now repair (L's error sum fell back under the repair share since): then s cannot
+  /// stand for L's evaluation.
+  bool repair_skipped_wrongly(const Speculation& s, const Lane& L) const;
   void drop(Speculation& s);
   /// Drops the speculations of charts a or b: every one, or (in_atlas_only) those whose move is in
   /// the atlas (before drain scores a pair of them, which reads their UVs).

@@ -187,6 +187,10 @@ bool Engine::merge_entry(const Entry& e, std::string& reason, Lane& L, const Lan
   if (!speculating_) return try_merge(e.a, e.b, reason, L);
   for (auto& s : spec_)
     if (s->live && s->e.a == e.a && s->e.b == e.b && s->e.va == e.va && s->e.vb == e.vb) {
+      if (repair_skipped_wrongly(*s, L)) {
+        drop(*s);  // evaluated afresh below, with the repair
+        break;
+      }
       ++rep_.second_pass_speculation_used;
       log = &s->lane;
       return settle(*s, reason, L);
@@ -267,6 +271,12 @@ void Engine::pick_lookahead(const Entry& e, std::vector<Speculation*>& batch) {
     }
 }
 
+bool Engine::repair_skipped_wrongly(const Speculation& s, const Lane& L) const {
+  // note: a move refused as a flip without being solved is one whose solve ended with inverted
+  // triangles (check's first test); with the repair on, L's solve would have repaired it.
+  return s.lane.repair_off && !s.mv.solved && s.reason == "flip" && !repair_spent(L);
+}
+
 void Engine::run_batch(std::vector<Speculation*>& batch) {
   for (Speculation* s : batch) {
     Lane& l = s->lane;
@@ -278,6 +288,11 @@ void Engine::run_batch(std::vector<Speculation*>& batch) {
     l.err_sum = 0;
     l.global_check = false;
     l.err_max = std::numeric_limits<double>::infinity();
+    // note: the main lane's repair budget only matters when the result is used (settle refuses a
+    // repaired move then); a solve it would refuse is cheaper without the repair (its untangle is most
+    // of a large move's cost), and the few whose entry comes when the budget is no longer spent are
+    // evaluated again (repair_skipped_wrongly). batch[0] is settled at once: its answer is exact.
+    l.repair_off = repair_spent(main_);
     // Stamps above every earlier one; lanes of one batch share values but touch disjoint charts.
     l.epoch = l.seen_stamp = stamp_high_;
     s->reason.clear();

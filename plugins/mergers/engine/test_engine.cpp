@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cstdio>
 #include <functional>
 #include <map>
@@ -485,6 +486,78 @@ TEST(MergeEngine, SpeculativeSecondPassGivesTheSerialAtlas) {
                 reps[3].second_pass_speculated, reps[4].second_pass_speculated, reps[1].second_pass_speculation_used,
                 reps[2].second_pass_speculation_used, reps[3].second_pass_speculation_used,
                 reps[4].second_pass_speculation_used, reps[0].rejected["global_distortion"]);
+  }
+}
+
+/// ARAP, except that every problem with a number of triangles divisible by 3 "needs the repair": it
+/// is refused (inverted) when the caller cannot use a repair, else returned as repaired. Counts the
+/// repairs it ran (any thread).
+class RepairingSolver final : public LocalSolver {
+ public:
+  SolveResult solve(LocalProblem& p) override {
+    SolveResult r = arap_.solve(p);
+    if (!r.ok || p.tri.size() % 3 != 0) return r;
+    if (!p.repair_usable) {
+      r.ok = false;
+      r.failure = "inverted triangles after ARAP";
+      return r;
+    }
+    r.repaired = true;
+    ++repairs_run;
+    return r;
+  }
+  bool reentrant() const override { return true; }
+  std::atomic<size_t> repairs_run{0};
+
+ private:
+  ArapSolver arap_;
+};
+
+TEST(MergeEngine, SpeculationSkipsTheRepairsTheSerialPassSkips) {
+  // Once the main lane has spent repaired_global_share of the budget, its solves skip the
+  // injectivity repair (refused as flips). Speculations evaluated then skip it as well (their lanes'
+  // repair_off); one whose entry comes after the error sum fell back under the share is evaluated
+  // again. The atlas and the counters must be the serial ones, and the repairs run side by side at
+  // most the serial pass's plus one per speculation not used (without repair_off, every move drain
+  // evaluates while the share is spent would run one more).
+  for (double share : {1.0, 0.3}) {
+    std::vector<Atlas> out;
+    std::vector<MergeReport> reps;
+    std::vector<size_t> run_repairs;
+    for (int batch : {1, 4}) {
+      set_thread_count(batch == 1 ? 1 : 2);
+      test::Run run(test::distorted_fragmented_grid(20, 16, 0.08));
+      MergeOptions o;
+      o.priority = Priority::MMethod;
+      o.global_bound = 0.006;
+      o.repaired_global_share = share;
+      o.second_pass = SecondPass::AcrossRegions;
+      o.second_pass_seam_refusal = false;
+      o.second_pass_local_bound = 0.1;
+      o.second_pass_batch = batch;
+      RepairingSolver solver;
+      reps.push_back(run_merges(run.mesh, run.topo, run.ctx.atlas, squares(run.mesh, 2.0), o, solver, {}));
+      run_repairs.push_back(solver.repairs_run);
+      out.push_back(run.ctx.atlas);
+    }
+    set_thread_count(0);
+    const std::string what = "share " + std::to_string(share);
+    EXPECT_GT(reps[0].repairs_tried, 5u) << what;
+    if (share < 1) {
+      EXPECT_GT(reps[0].rejected["flip"], 5u) << what;  // the share was spent during the pass
+    }
+    EXPECT_GT(reps[1].second_pass_speculation_used, 10u) << what;
+    EXPECT_EQ(reps[1].repairs_tried, reps[0].repairs_tried) << what;
+    EXPECT_EQ(reps[1].rejected, reps[0].rejected) << what;
+    EXPECT_EQ(reps[1].accepted, reps[0].accepted) << what;
+    EXPECT_EQ(out[1].face_chart, out[0].face_chart) << what;
+    ASSERT_EQ(out[1].wedge_uv.size(), out[0].wedge_uv.size()) << what;
+    for (size_t w = 0; w < out[0].wedge_uv.size(); ++w)
+      ASSERT_TRUE(out[1].wedge_uv[w] == out[0].wedge_uv[w]) << "wedge " << w << ", " << what;
+    const size_t unused = reps[1].second_pass_speculated - reps[1].second_pass_speculation_used;
+    EXPECT_LE(run_repairs[1], run_repairs[0] + unused) << what;
+    std::printf("%s: repairs run serial %zu, side by side %zu (speculations unused %zu), flips %zu\n", what.c_str(),
+                run_repairs[0], run_repairs[1], unused, reps[0].rejected["flip"]);
   }
 }
 
