@@ -74,6 +74,14 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
                "After the last pass, close cuts inside one chart (weld the two UV sides of a self-seam) when the "
                "chart stays a disk and the merge checks (flips, folds, fans, overlaps, local and global distortion) "
                "hold"),
+      opt_bool("unconstrained_trial", false,
+               "With regions: when the run ends below unconstrained_trial_share x global_bound (the regions had no "
+               "scarce budget to allocate), merge again from the input without regions and keep that atlas when it "
+               "leaves a shorter 3D seam"),
+      opt_double("unconstrained_trial_share", 0.8,
+                 "The unconstrained trial runs when the global ARAP distortion after merging with regions is below "
+                 "this share of global_bound")
+          .range(0, 1),
       opt_bool("fan_targets", false,
                "Solve with target shapes whose angles close every boundary fan of the merged chart that its input UV "
                "angles would open past a full turn (the move is still measured against the input UV triangles)"),
@@ -99,6 +107,8 @@ MergeOptions merge_options_from(const Options& o) {
   m.max_free_vertices = static_cast<int>(o.get_int("max_free_vertices"));
   m.cross_page = o.get_bool("cross_page");
   m.close_cuts = o.get_bool("close_cuts");
+  m.unconstrained_trial = o.get_bool("unconstrained_trial");
+  m.unconstrained_trial_share = o.get_double("unconstrained_trial_share");
   m.fan_targets = o.get_bool("fan_targets");
   m.fan_margin = o.get_double("fan_margin");
   m.second_pass = o.get_enum<SecondPass>("second_pass", {{"none", SecondPass::None}, {"across_regions", SecondPass::AcrossRegions}});
@@ -154,13 +164,12 @@ json MergeReport::to_json() const {
   for (const auto& [k, v] : cut_rejected) crej[k] = v;
   j["cut_rejected"] = crej;
   json left = json::object();
-  double left_total = 0;
-  for (const auto& [k, v] : seam_left) {
-    left[k] = {{"pairs", v.pairs}, {"edges", v.edges}, {"length_3d", v.length_3d}};
-    left_total += v.length_3d;
-  }
+  for (const auto& [k, v] : seam_left) left[k] = {{"pairs", v.pairs}, {"edges", v.edges}, {"length_3d", v.length_3d}};
   j["seam_left"] = left;
-  j["seam_left_length_3d"] = left_total;
+  j["seam_left_length_3d"] = seam_left_length_3d();
+  j["unconstrained_trial_run"] = unconstrained_trial_run;
+  j["unconstrained_trial_kept"] = unconstrained_trial_kept;
+  j["regions_seam_left_length_3d"] = regions_seam_left_length_3d;
   j["distortion_in"] = distortion_in;
   j["optimisation_seconds"] = optimisation_seconds;
   j["check_seconds"] = check_seconds;
@@ -168,8 +177,10 @@ json MergeReport::to_json() const {
   return j;
 }
 
-MergeReport run_merges(const TexturedMesh& mesh, const Topology& topo, Atlas& atlas, const std::vector<int>& face_region,
-                       const MergeOptions& opt, LocalSolver& solver, const Progress& progress) {
+namespace {
+MergeReport run_with_regions(const TexturedMesh& mesh, const Topology& topo, Atlas& atlas,
+                             const std::vector<int>& face_region, const MergeOptions& opt, LocalSolver& solver,
+                             const Progress& progress) {
   {
     detail::Engine e(mesh, topo, atlas, face_region, opt, solver);
     MergeReport r = e.run(progress);
@@ -179,6 +190,31 @@ MergeReport run_merges(const TexturedMesh& mesh, const Topology& topo, Atlas& at
   e.use_budget_shares();
   MergeReport r = e.run(progress);
   r.first_pass_budget_shares = true;
+  return r;
+}
+}  // namespace
+
+MergeReport run_merges(const TexturedMesh& mesh, const Topology& topo, Atlas& atlas, const std::vector<int>& face_region,
+                       const MergeOptions& opt, LocalSolver& solver, const Progress& progress) {
+  const bool trial = opt.unconstrained_trial && !face_region.empty();
+  Atlas input;
+  if (trial) input = atlas;
+  MergeReport r = run_with_regions(mesh, topo, atlas, face_region, opt, solver, progress);
+  if (!trial || !(r.distortion_out < opt.unconstrained_trial_share * opt.global_bound)) return r;
+  // note: the regions spend a scarce budget on planar merges first; where the run leaves most of it
+  // unspent they only held back merges across region borders (docs/mergers.md, "Unconstrained trial").
+  const std::vector<int> no_regions;  // (the engine keeps a reference)
+  detail::Engine e(mesh, topo, input, no_regions, opt, solver);
+  MergeReport t = e.run(progress);
+  const double with_regions = r.seam_left_length_3d();
+  const bool keep = t.seam_left_length_3d() < with_regions;
+  if (keep) {
+    atlas = std::move(input);
+    r = std::move(t);
+  }
+  r.unconstrained_trial_run = true;
+  r.unconstrained_trial_kept = keep;
+  r.regions_seam_left_length_3d = with_regions;
   return r;
 }
 

@@ -69,6 +69,11 @@ struct MergeOptions {
   /// After the last pass, close cuts inside charts (weld the two UV sides of self-seams) where the
   /// chart stays a disk and the checks of a merge hold (docs/mergers.md, "Closing cuts").
   bool close_cuts = false;
+  /// With regions: when the run ends below unconstrained_trial_share x global_bound (the budget the
+  /// regions allocate was not binding), merge again from the input without regions and keep that
+  /// atlas when it leaves a shorter 3D seam (docs/mergers.md, "Unconstrained trial").
+  bool unconstrained_trial = false;
+  double unconstrained_trial_share = 0.8;  ///< [0, 1]: share of global_bound under which the trial runs
   /// Solve with target shapes that close over-full boundary fans (docs/mergers.md step 6).
   bool fan_targets = false;
   double fan_margin = 0.01;  ///< fan targets close at 2 pi (1 - fan_margin)
@@ -104,6 +109,10 @@ struct MergeReport {
   /// without them it ended above global_bound.
   bool first_pass_budget_shares = false;
   size_t first_pass_lanes = 0;  ///< regions with candidate pairs: the first pass's independent queues
+  /// Unconstrained trial (unconstrained_trial): whether it ran and whether its atlas was kept, and the
+  /// 3D seam length the run with regions left cut (seam_left_length_3d of the kept run is the other).
+  bool unconstrained_trial_run = false, unconstrained_trial_kept = false;
+  double regions_seam_left_length_3d = 0;
   double first_pass_seconds = 0;   ///< wall time of the first pass (its lanes run side by side)
   double second_pass_seconds = 0;  ///< wall time of the second pass (one queue)
   double close_cuts_seconds = 0;   ///< wall time of closing cuts (close_cuts)
@@ -132,6 +141,12 @@ struct MergeReport {
     double length_3d = 0;
   };
   std::map<std::string, SeamLeft> seam_left;
+  /// Total 3D length of seam_left.
+  double seam_left_length_3d() const {
+    double t = 0;
+    for (const auto& kv : seam_left) t += kv.second.length_3d;
+    return t;
+  }
   double distortion_in = 0;           ///< global ARAP distortion of the atlas given to the engine
   double distortion_out = 0;          ///< after merging (recomputed from scratch)
   size_t flipped_out = 0;             ///< faces with det J <= 0 after merging (must be 0)

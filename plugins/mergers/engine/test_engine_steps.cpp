@@ -497,5 +497,56 @@ TEST(MergeEngineSteps, TheAlignmentRefusalScalesWithTheWholeSeam) {
   }
 }
 
+TEST(MergeEngineSteps, TheUnconstrainedTrialIsKeptOnlyWhenItLeavesLessSeam) {
+  // By hand: the two squares in two regions (faces 0-1 and 2-3) and no second pass: with regions the
+  // pair is no candidate, so 2 charts stay and their shared edge (3D length 1) is left cut. The merge
+  // costs nothing (the right square is the left one's texel density, turned 90 degrees), so the
+  // distortion after it (0) is under 0.8 x the bound: the trial merges without regions into one
+  // chart, leaves no seam (0 < 1) and is kept.
+  const std::vector<int> regions{0, 0, 1, 1};
+  ArapSolver solver;
+  {
+    test::Run run(two_squares(false));
+    MergeOptions o;
+    o.unconstrained_trial = true;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, regions, o, solver, {});
+    EXPECT_TRUE(r.unconstrained_trial_run);
+    EXPECT_TRUE(r.unconstrained_trial_kept);
+    EXPECT_NEAR(r.regions_seam_left_length_3d, 1.0, 1e-12);
+    EXPECT_EQ(r.seam_left_length_3d(), 0.0);
+    EXPECT_EQ(r.charts_out, 1u);
+    EXPECT_EQ(run.ctx.atlas.num_charts, 1);
+    EXPECT_EQ(r.flipped_out, 0u);
+    test::expect_valid_atlas(run);
+  }
+  // Off, or with a share of 0 (no distortion is below 0 x the bound): the regions' 2 charts.
+  for (bool on : {false, true}) {
+    test::Run run(two_squares(false));
+    MergeOptions o;
+    o.unconstrained_trial = on;
+    o.unconstrained_trial_share = 0;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, regions, o, solver, {});
+    EXPECT_FALSE(r.unconstrained_trial_run);
+    EXPECT_EQ(r.charts_out, 2u);
+    EXPECT_NEAR(r.seam_left_length_3d(), 1.0, 1e-12);
+  }
+  // The right square 1.5x denser: welding it costs ARAP error far above a bound of 1e-4, so the trial
+  // runs (0 < 0.8e-4) but is refused the same merge (global_distortion) and leaves the same seam
+  // (1 = 1): the regions' atlas stays, bit for bit.
+  {
+    test::Run run(two_squares(false, 1.5));
+    const Atlas input = run.ctx.atlas;
+    MergeOptions o;
+    o.unconstrained_trial = true;
+    o.global_bound = 1e-4;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, regions, o, solver, {});
+    EXPECT_TRUE(r.unconstrained_trial_run);
+    EXPECT_FALSE(r.unconstrained_trial_kept);
+    EXPECT_EQ(r.charts_out, 2u);
+    EXPECT_EQ(run.ctx.atlas.wedge_uv, input.wedge_uv);
+    EXPECT_EQ(run.ctx.atlas.face_wedge, input.face_wedge);
+  }
+}
+
 }  // namespace
 }  // namespace texdefrag::merge
