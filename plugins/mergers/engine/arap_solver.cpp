@@ -4,6 +4,7 @@
 #include "arap_solver.h"
 
 #include <Eigen/SparseCholesky>
+#include <Eigen/OrderingMethods>
 #include <Eigen/SparseCore>
 
 #include <algorithm>
@@ -23,11 +24,22 @@ double arap_energy(const LocalProblem& p) {
 
 namespace {
 
+/// Eigen's AMDOrdering for a matrix that is already structurally symmetric: SimplicialLDLT hands its
+/// ordering the full symmetric matrix built from the lower triangle, whose pattern A + A^T (what
+/// AMDOrdering forms first, a transpose and a sum) is its own, so the same permutation comes out.
+struct SymmetricAmdOrdering {
+  using PermutationType = Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int>;
+  void operator()(const Eigen::SparseMatrix<double>& symmetric, PermutationType& perm) const {
+    Eigen::SparseMatrix<double> work = symmetric;  // note: minimum_degree_ordering uses it as workspace
+    Eigen::internal::minimum_degree_ordering(work, perm);
+  }
+};
+
 /// The constant part of a problem's local/global iteration: per-triangle gradient operators and the
 /// factorised global matrix K = sum_t w_t D_t^T D_t over the free coordinates.
 struct ArapSystem {
   std::vector<Mat46> D;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, SymmetricAmdOrdering> ldlt;
 };
 
 /// What one pass over a problem's triangles at the current positions gives (evaluate()).
@@ -52,12 +64,12 @@ Scratch& scratch() {
   return s;
 }
 
-/// Builds sys for p; false when K is singular.
+/// Builds sys for p (K's lower triangle, then its factorisation); false when K is singular.
 bool build_system(const LocalProblem& p, ArapSystem& sys, std::vector<Eigen::Triplet<double>>& trip) {
   const int n = p.num_free;
   sys.D.resize(p.tri.size());
   trip.clear();
-  trip.reserve(p.tri.size() * 36);
+  trip.reserve(p.tri.size() * 21);
   for (size_t t = 0; t < p.tri.size(); ++t) {
     sys.D[t] = gradient_operator(p.rest_inv[t]);
     const Eigen::Matrix<double, 6, 6> K = p.weight[t] * sys.D[t].transpose() * sys.D[t];
@@ -66,8 +78,10 @@ bool build_system(const LocalProblem& p, ArapSystem& sys, std::vector<Eigen::Tri
       if (va >= n) continue;
       for (int b = 0; b < 6; ++b) {
         const int vb = p.tri[t][static_cast<size_t>(b / 2)];
-        if (vb >= n) continue;
-        trip.emplace_back(2 * va + a % 2, 2 * vb + b % 2, K(a, b));
+        const int row = 2 * va + a % 2, col = 2 * vb + b % 2;
+        // note: the factorisation (and its ordering) reads only K's lower triangle.
+        if (vb >= n || row < col) continue;
+        trip.emplace_back(row, col, K(a, b));
       }
     }
   }
