@@ -103,6 +103,14 @@ struct ChartInfo {
   OrientationGroups groups{};
 };
 
+/// Texels: a face whose input UV triangle's smallest altitude is below this is *thin*: its orientation
+/// does not survive the rotation of its chart and the rounding of a float32 file (glTF texture
+/// coordinates are normalised float32: half a unit in the last place is 2.4e-4 texel on an 8192 page,
+/// so the altitude of a rounded triangle can be off by about 7e-4). The engine opens such faces to this
+/// altitude at set-up and keeps every move from closing them below half of it (docs/mergers.md,
+/// "Thin faces").
+constexpr double kThinAltitude = 2e-3;
+
 /// Merges the M-method's island lookahead may look ahead (its IslandLookahead(a, b, 5)).
 constexpr int kIslandLookaheadSteps = 5;
 
@@ -335,6 +343,14 @@ class Engine {
  private:
   // ---- static data
   void setup_rest_shapes();
+  /// Opens every thin face (see kThinAltitude): its solve target becomes its input triangle with the
+  /// corner opposite its longest edge moved out to kThinAltitude, and its wedge there is moved out in
+  /// the atlas likewise when that leaves every other face using the wedge at least as open as before
+  /// (or as kThinAltitude). Fills fthin_, thin_inv_, thin_alt_ and the report's thin-face counts.
+  void open_thin_faces();
+  /// Smallest altitude (texels) of face f's current UV triangle, signed: negative when it turns
+  /// against its rest shape (det J < 0).
+  double oriented_altitude(int f) const;
   void setup_charts();
   void setup_seams_and_grids();
   int corner_of(int f, int v) const {
@@ -508,6 +524,9 @@ class Engine {
   std::vector<Mat2> rest_inv_;         ///< inverse rest edge matrix (input UV triangle, texels; mirrored y -> -y when fmirror_)
   std::vector<char> fmirror_;          ///< face laid out mirrored relative to its input UV triangle
   std::vector<double> rest_w_;         ///< input UV area (0: no energy)
+  std::vector<char> fthin_;            ///< thin face (open_thin_faces)
+  std::unordered_map<int, Mat2> thin_inv_;   ///< thin faces' solve targets (inverse opened rest edge matrix; mirrored with the face)
+  std::unordered_map<int, double> thin_alt_; ///< altitude (texels) no move may close a thin face below
   std::vector<double> err_w_;          ///< weight * ARAP error, per face, current atlas
   double weight_sum_ = 0;
   std::vector<Vec3> region_normal_;

@@ -213,6 +213,10 @@ void Engine::mirror_faces(const std::vector<int>& faces) {
   for (int f : faces) {
     fmirror_[static_cast<size_t>(f)] ^= 1;
     rest_inv_[static_cast<size_t>(f)].col(1) = -rest_inv_[static_cast<size_t>(f)].col(1);
+    if (fthin_[static_cast<size_t>(f)]) {
+      Mat2& t = thin_inv_.at(f);
+      t.col(1) = -t.col(1);
+    }
   }
 }
 
@@ -353,7 +357,9 @@ void Engine::solve(Move& mv) {
   for (int f : mv.prob_faces) {
     lp.tri.push_back({local(wedge(f, 0)), local(wedge(f, 1)), local(wedge(f, 2))});
     auto it = target.find(f);
-    lp.rest_inv.push_back(it != target.end() ? it->second : rest_inv_[static_cast<size_t>(f)]);
+    lp.rest_inv.push_back(it != target.end()           ? it->second
+                          : fthin_[static_cast<size_t>(f)] ? thin_inv_.at(f)
+                                                           : rest_inv_[static_cast<size_t>(f)]);
     lp.weight.push_back(rest_w_[static_cast<size_t>(f)]);
   }
   lp.repair_usable = !repair_spent(L);
@@ -501,6 +507,8 @@ const char* Engine::check_shapes(const Move& mv) {
     }
     const Mat2 J = jacobian(f);
     if (J.determinant() <= 0) return "flip";
+    // A thin face closed below what a float32 file can orient is as good as flipped (open_thin_faces).
+    if (fthin_[static_cast<size_t>(f)] && oriented_altitude(f) < thin_alt_.at(f)) return "flip";
     if (opt_.min_singular_value > 0 && !collapsed)
       collapsed = signed_singular_values_2x2(J)[1] < opt_.min_singular_value;
   }

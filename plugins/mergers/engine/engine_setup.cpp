@@ -97,12 +97,85 @@ void Engine::setup_rest_shapes() {
     rest_w_[f] = 0.5 * std::abs(det);
     weight_sum_ += rest_w_[f];
   }
+  open_thin_faces();
   for (size_t f = 0; f < nf; ++f) {
     if (rest_w_[f] == 0) continue;
     err_w_[f] = weighted_err(static_cast<int>(f));
     main_.err_sum += err_w_[f];
   }
   rep_.distortion_in = weight_sum_ > 0 ? main_.err_sum / weight_sum_ : 0;
+}
+
+double Engine::oriented_altitude(int f) const {
+  const Vec2& a = at_.wedge_uv[static_cast<size_t>(wedge(f, 0))];
+  const Vec2& b = at_.wedge_uv[static_cast<size_t>(wedge(f, 1))];
+  const Vec2& c = at_.wedge_uv[static_cast<size_t>(wedge(f, 2))];
+  const double twice = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+  const double len = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+  const double sign = rest_inv_[static_cast<size_t>(f)].determinant() > 0 ? 1 : -1;
+  return len > 0 ? sign * twice / len : 0;
+}
+
+void Engine::open_thin_faces() {
+  // note: a sub-texel sliver (Matterport's Draco GLBs hold 5-13 per room, altitude about 1e-6 texel)
+  // keeps its orientation in doubles, but once its chart is turned by the packer and written as
+  // float32 its triangle has zero or negative area (eval counted them as flipped faces). Opening it to
+  // kThinAltitude costs ARAP error (its Jacobian stretches it by kThinAltitude / altitude), weighted by
+  // its tiny input UV area; the engine counts that cost from the start, against the true input.
+  const size_t nf = mesh_.faces.size();
+  fthin_.assign(nf, 0);
+  for (size_t f = 0; f < nf; ++f) {
+    if (rest_w_[f] == 0) continue;
+    std::array<Vec2, 3> P;
+    for (int k = 0; k < 3; ++k) P[static_cast<size_t>(k)] = mesh_.corner_texel(f, k);
+    size_t i = 0;
+    double len = -1;
+    for (size_t k = 0; k < 3; ++k) {
+      const double l = (P[(k + 1) % 3] - P[k]).norm();
+      if (l > len) {
+        len = l;
+        i = k;
+      }
+    }
+    if (!(len > 0) || 2 * rest_w_[f] / len >= kThinAltitude) continue;
+    ++rep_.thin_faces;
+    const int fi = static_cast<int>(f);
+    const size_t j = (i + 1) % 3, k = (i + 2) % 3;
+    // The target: the corner opposite the longest edge moved out, on its side, to kThinAltitude.
+    const Vec2 e = (P[j] - P[i]) / len, n(-e.y(), e.x());
+    const double h = e.x() * (P[k] - P[i]).y() - e.y() * (P[k] - P[i]).x();
+    std::array<Vec2, 3> Q = P;
+    Q[k] += ((h >= 0 ? 1 : -1) * kThinAltitude - h) * n;
+    Mat2 Dm;
+    Dm.col(0) = Q[1] - Q[0];
+    Dm.col(1) = Q[2] - Q[0];
+    fthin_[f] = 1;
+    thin_inv_[fi] = Dm.inverse();
+    // The atlas: the same move on the current triangle, kept when no other face using that wedge
+    // closes below min(its altitude before, kThinAltitude).
+    const int w = wedge(fi, static_cast<int>(k));
+    const Vec2 a = uv(wedge(fi, static_cast<int>(i))), b = uv(wedge(fi, static_cast<int>(j))), old = uv(w);
+    const double lb = (b - a).norm();
+    const double now = oriented_altitude(fi);
+    if (lb > 0 && now < kThinAltitude) {
+      const Vec2 eb = (b - a) / lb, nb(-eb.y(), eb.x());
+      const double sd = eb.x() * (old - a).y() - eb.y() * (old - a).x();
+      const double side = rest_inv_[f].determinant() > 0 ? 1 : -1;  // its rest shape's turn
+      std::vector<std::pair<int, double>> others;
+      faces_of_wedge(w, chart(fi), [&](int g, int) {
+        if (g != fi && rest_w_[static_cast<size_t>(g)] > 0) others.emplace_back(g, oriented_altitude(g));
+      });
+      uv(w) = old + (side * kThinAltitude - sd) * nb;
+      bool ok = oriented_altitude(fi) > 0;
+      for (const auto& [g, before] : others) ok = ok && oriented_altitude(g) >= std::min(before, kThinAltitude);
+      if (ok) {
+        ++rep_.thin_faces_opened;
+      } else {
+        uv(w) = old;
+      }
+    }
+    thin_alt_[fi] = std::min(0.5 * kThinAltitude, std::max(0.0, oriented_altitude(fi)));
+  }
 }
 
 void Engine::setup_charts() {

@@ -170,6 +170,8 @@ json MergeReport::to_json() const {
   j["unconstrained_trial_run"] = unconstrained_trial_run;
   j["unconstrained_trial_kept"] = unconstrained_trial_kept;
   j["regions_seam_left_length_3d"] = regions_seam_left_length_3d;
+  j["thin_faces"] = thin_faces;
+  j["thin_faces_opened"] = thin_faces_opened;
   j["distortion_in"] = distortion_in;
   j["optimisation_seconds"] = optimisation_seconds;
   j["check_seconds"] = check_seconds;

@@ -147,6 +147,9 @@ struct MergeReport {
     for (const auto& kv : seam_left) t += kv.second.length_3d;
     return t;
   }
+  /// Faces whose input UV triangle is thinner than the engine's kThinAltitude (a float32 file cannot
+  /// orient them once turned), and those the set-up opened to it (docs/mergers.md, "Thin faces").
+  size_t thin_faces = 0, thin_faces_opened = 0;
   double distortion_in = 0;           ///< global ARAP distortion of the atlas given to the engine
   double distortion_out = 0;          ///< after merging (recomputed from scratch)
   size_t flipped_out = 0;             ///< faces with det J <= 0 after merging (must be 0)

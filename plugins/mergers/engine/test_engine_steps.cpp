@@ -548,5 +548,82 @@ TEST(MergeEngineSteps, TheUnconstrainedTrialIsKeptOnlyWhenItLeavesLessSeam) {
   }
 }
 
+/// A 64 x 64-texel square (two faces) on a 4096^2 page, around texel (2032, 2032), and a sliver
+/// (positions 1, 4, 2) on its right edge whose corner 4 lies `delta` texels off that edge: its UV
+/// altitude is delta, its UV area 32 delta. In 3D the sliver stands up (position 4 at z = 0.5).
+TexturedMesh square_with_sliver(double delta) {
+  TexturedMesh m;
+  Page pg;
+  pg.material = "m";
+  pg.width = pg.height = 4096;
+  pg.image_path = "unused.png";
+  m.pages.push_back(pg);
+  m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), Vec3(1, 0.5, 0.5)};
+  const std::vector<Vec2> tx = {Vec2(2000, 2000), Vec2(2064, 2000), Vec2(2064, 2064), Vec2(2000, 2064),
+                                Vec2(2064 + delta, 2032)};
+  for (const Vec2& t : tx) m.texcoords.push_back(t / 4096.0);
+  const int tris[3][3] = {{0, 1, 2}, {0, 2, 3}, {1, 4, 2}};
+  for (int t = 0; t < 3; ++t) {
+    Face f;
+    f.page = 0;
+    f.source_line = t + 1;
+    for (int k = 0; k < 3; ++k) f.v[static_cast<size_t>(k)] = f.vt[static_cast<size_t>(k)] = tris[t][k];
+    m.faces.push_back(f);
+  }
+  return m;
+}
+
+/// Twice the signed area of face f's UV triangle once the atlas is turned by `deg` degrees about the
+/// page centre and stored as normalised float32 coordinates (as the glTF writer stores them).
+double stored_twice_area(const Atlas& at, int f, double deg) {
+  const double c = std::cos(deg * M_PI / 180), s = std::sin(deg * M_PI / 180);
+  Vec2 p[3];
+  for (int k = 0; k < 3; ++k) {
+    const Vec2 q = at.wedge_uv[static_cast<size_t>(at.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)])] -
+                   Vec2(2048, 2048);
+    const Vec2 r = Vec2(2048, 2048) + Vec2(c * q.x() - s * q.y(), s * q.x() + c * q.y());
+    const float u = static_cast<float>(r.x() / 4096.0), v = static_cast<float>(r.y() / 4096.0);
+    p[k] = Vec2(static_cast<double>(u) * 4096.0, static_cast<double>(v) * 4096.0);
+  }
+  return (p[1] - p[0]).x() * (p[2] - p[0]).y() - (p[1] - p[0]).y() * (p[2] - p[0]).x();
+}
+
+TEST(MergeEngineSteps, AThinFaceIsOpenedSoThatAFloat32FileKeepsItsOrientation) {
+  // By hand: the sliver's altitude is 1e-5 texel, far below float32's resolution at texel 2064 of a
+  // 4096 page (half a unit in the last place: 1.2e-4 texel), so turned by some angle and stored it
+  // has zero or negative area (eval counted such faces as flipped on Cedar Creek GLBs). The engine
+  // opens it to kThinAltitude (2e-3): corner 4 moves 2e-3 - 1e-5 texel away from the edge 1-2, the
+  // square does not move. Its Jacobian is then diag(200, 1) in the edge's frame, ARAP error 199^2
+  // weighted by its UV area 3.2e-4: E = 12.672 / 4096.00032 = 0.0030938 over the model.
+  test::Run input(square_with_sliver(1e-5));
+  int bad = 0;
+  for (int deg = 0; deg < 360; ++deg) bad += stored_twice_area(input.ctx.atlas, 2, deg) <= 0;
+  EXPECT_GT(bad, 0);
+
+  test::Run run(square_with_sliver(1e-5));
+  const Atlas before = run.ctx.atlas;
+  ArapSolver solver;
+  const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {}, MergeOptions{}, solver, {});
+  EXPECT_EQ(r.thin_faces, 1u);
+  EXPECT_EQ(r.thin_faces_opened, 1u);
+  const Atlas& at = run.ctx.atlas;
+  const Vec2 apex = at.wedge_uv[static_cast<size_t>(at.face_wedge[2][1])];
+  EXPECT_NEAR(apex.x(), 2064 + 2e-3, 1e-9);
+  EXPECT_NEAR(apex.y(), 2032, 1e-9);
+  for (int f = 0; f < 2; ++f)
+    for (size_t k = 0; k < 3; ++k)
+      EXPECT_EQ(at.wedge_uv[static_cast<size_t>(at.face_wedge[static_cast<size_t>(f)][k])],
+                before.wedge_uv[static_cast<size_t>(before.face_wedge[static_cast<size_t>(f)][k])]);
+  for (int deg = 0; deg < 360; ++deg) EXPECT_GT(stored_twice_area(at, 2, deg), 0) << deg;
+  EXPECT_NEAR(r.distortion_out, 199.0 * 199.0 * 3.2e-4 / (4096 + 3.2e-4), 1e-9);
+  EXPECT_EQ(r.flipped_out, 0u);
+  // An altitude of kThinAltitude or more is left alone.
+  test::Run wide(square_with_sliver(3e-3));
+  const Atlas wide_before = wide.ctx.atlas;
+  const MergeReport rw = run_merges(wide.mesh, wide.topo, wide.ctx.atlas, {}, MergeOptions{}, solver, {});
+  EXPECT_EQ(rw.thin_faces, 0u);
+  EXPECT_EQ(wide.ctx.atlas.wedge_uv, wide_before.wedge_uv);
+}
+
 }  // namespace
 }  // namespace texdefrag::merge
