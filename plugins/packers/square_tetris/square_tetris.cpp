@@ -944,12 +944,15 @@ class SquareTetris : public Packer {
     PackInput in;
     PackResult r;
     size_t tail_charts = 0, orders = 0, width_trials = 0;
+    int width = 0;  ///< page width of the result
     bool tail_skipped = false, refined = false;
     std::string order;
     long long outline = 0, padded = 0;  ///< outline cells before and after dilation (tail masks)
   };
 
-  Packed pack_all(StageContext& ctx, const CommonSettings& s) const {
+  /// like: when given (a trial's packing against an earlier one), only like's tail order and page
+  /// width are packed, without refinement; otherwise every order and width.
+  Packed pack_all(StageContext& ctx, const CommonSettings& s, const Packed* like = nullptr) const {
     const std::string name = "packers.square_tetris";
     Packed out;
     out.in = packing::prepare_charts(ctx, s, name);
@@ -990,8 +993,14 @@ class SquareTetris : public Packer {
     // dilated outlines of the tail) as well as from their boxes.
     PackResult& r = out.r;
     std::string best_order;
-    const auto orders = tail_orders(in, s, order, tail, tail_skipped);
-    const std::vector<int> widths = packing::trial_widths(in, s, plan.need);
+    auto orders = tail_orders(in, s, order, tail, tail_skipped);
+    std::vector<int> widths = packing::trial_widths(in, s, plan.need);
+    if (like) {
+      const auto same = std::find_if(orders.begin(), orders.end(), [&](const auto& e) { return e.first == like->order; });
+      if (same != orders.end()) orders = {*same};
+      else orders.resize(1);
+      widths = {std::max(like->width, packing::min_page_width(in, s))};  // the grid's slack may need more
+    }
     auto packer = [&](const std::vector<int>& o) {
       return [&in, &s, &o, &plan, &ctx](int width, packing::TrialBound& bound) {
         return pack_square_tetris(in, s, o, plan.rects, plan.profiles, plan.drops, width, bound, ctx);
@@ -1006,12 +1015,14 @@ class SquareTetris : public Packer {
       if (best_order.empty() || packing::better_result(t, r))
         r = std::move(t), best_order = entry.first, best_width = w, best_o = &entry.second;
     }
-    const std::vector<int> extra = refine_widths(in, s, widths, best_width, tail_charts, tail_skipped);
+    const std::vector<int> extra =
+        like ? std::vector<int>{} : refine_widths(in, s, widths, best_width, tail_charts, tail_skipped);
     if (!extra.empty()) {
       int w = 0;
       PackResult t = packing::pack_widths(in, s, extra, packer(*best_o), &w, &r);
       if (packing::better_result(t, r)) r = std::move(t), best_width = w, out.refined = true;
     }
+    out.width = best_width;
     out.tail_charts = tail_charts;
     out.tail_skipped = tail_skipped;
     out.orders = orders.size();
@@ -1051,6 +1062,7 @@ class SquareTetris : public Packer {
     // whole blocks (block_grid dividing page_multiple, or power-of-two pages at least that large,
     // and max_page_size); otherwise there is no trial.
     bool grid_kept = false;
+    size_t grid_trials = 0;  // page widths the block-grid trial packed (over its tail orders)
     const int grid = static_cast<int>(options().get_int("block_grid"));
     const bool whole_blocks = (s.power_of_two || s.page_multiple % std::max(grid, 1) == 0) &&
                               s.max_page_size % std::max(grid, 1) == 0;
@@ -1058,7 +1070,8 @@ class SquareTetris : public Packer {
         std::any_of(best.in.charts.begin(), best.in.charts.end(), [](const PackChart& c) { return c.exact && !c.faces.empty(); })) {
       CommonSettings g = s;
       g.block_grid = grid;
-      Packed t = pack_all(ctx, g);
+      Packed t = pack_all(ctx, g, &best);
+      grid_trials = t.width_trials;
       const double cost = options().get_double("block_grid_max_cost");
       if (t.r.pages < best.r.pages ||
           (t.r.pages == best.r.pages && t.r.total_area() <= (1 + cost) * best.r.total_area())) {
@@ -1095,6 +1108,7 @@ class SquareTetris : public Packer {
       (*ctx.report)["page_width_refined"] = best.refined;
       (*ctx.report)["free_trial_kept"] = freed;
       (*ctx.report)["block_grid_kept"] = grid_kept;
+      (*ctx.report)["block_grid_width_trials"] = grid_trials;
       size_t aligned = 0;
       for (const PackChart& c : best.in.charts) aligned += c.block_aligned && !c.faces.empty() ? 1 : 0;
       (*ctx.report)["charts_block_aligned"] = aligned;

@@ -409,8 +409,9 @@ TEST(PackersSquareTetris, BlockGridPutsExactChartsOnTheInputBlockGrid) {
 }
 
 TEST(PackersSquareTetris, BlockGridTrialKeepsTheSmallerPackingAndNeedsWholeBlocks) {
-  // Default options (block_grid 8, max cost 0): the aligned packing is kept only when it needs no
-  // more page area than the other; never a larger page than without the grid. Page sides that are
+  // Default options (block_grid 8, max cost 0): the aligned packing, at the other packing's tail
+  // order and page width, is kept only when it needs no more page area than the other; never a
+  // larger page than without the grid. Page sides that are
   // not whole blocks (page_multiple 12) give no trial.
   std::mt19937 rng(9);
   const auto polys = random_polygons(rng, 120, 3, 50, 1024);
@@ -426,6 +427,10 @@ TEST(PackersSquareTetris, BlockGridTrialKeepsTheSmallerPackingAndNeedsWholeBlock
   const auto on = charts_on_block_grid(*trial, 8);
   const long aligned = std::count(on.begin(), on.end(), true);
   EXPECT_EQ(trial->report.at("block_grid_kept").get<bool>(), aligned == static_cast<long>(on.size()));
+  // The trial packs one page width in one tail order: the other packing's (its cost was a whole
+  // second packing over every order and width before 2026-12-03).
+  EXPECT_GT(off->report.at("page_width_trials").get<int>(), 1);
+  EXPECT_EQ(trial->report.at("block_grid_width_trials").get<int>(), 1);
   auto odd = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 12}, {"block_grid_max_cost", 1.0}});
   expect_valid_layout(*odd, 4);
   EXPECT_FALSE(odd->report.at("block_grid_kept").get<bool>());
