@@ -260,12 +260,7 @@ TEST(MergeEngine, FragmentedGridBecomesOneChart) {
 /// shifted by 40 texels per chart along u), so charts meet only at seams.
 TexturedMesh chart_grid(const std::function<int(int, int)>& chart_of) {
   const int nx = 8, ny = 3, page = 1024;
-  TexturedMesh m;
-  Page pg;
-  pg.material = "m";
-  pg.width = pg.height = page;
-  pg.image_path = "unused.png";
-  m.pages.push_back(pg);
+  TexturedMesh m = test::one_page_mesh(page);
   for (int j = 0; j <= ny; ++j)
     for (int i = 0; i <= nx; ++i) m.positions.emplace_back(i, j, 0);
   auto vid = [&](int i, int j) { return j * (nx + 1) + i; };

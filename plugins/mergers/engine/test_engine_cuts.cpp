@@ -27,22 +27,12 @@ void add_face(TexturedMesh& m, std::array<int, 3> v, std::array<Vec2, 3> t) {
   m.faces.push_back(f);
 }
 
-TexturedMesh empty_mesh() {
-  TexturedMesh m;
-  Page pg;
-  pg.material = "m";
-  pg.width = pg.height = 64;
-  pg.image_path = "unused.png";
-  m.pages.push_back(pg);
-  return m;
-}
-
 /// A 2 x 2 grid of unit squares in z = 0 (vertex (i, j) = 3j + i, two counter-clockwise triangles
 /// per square, 16 texels per unit at offset 8), slit along the edge from (1, 0) to (1, 1): the left
 /// square's corner at (1, 0) sits at x = 1 - d, the right square's at x = 1 + d (8 texels apart for
 /// d = 0.25); (1, 1) is one wedge (the slit's tip). One chart, 10 wedges, one self-seam edge.
 TexturedMesh slit_grid(double d) {
-  TexturedMesh m = empty_mesh();
+  TexturedMesh m = test::one_page_mesh(64);
   for (int j = 0; j <= 2; ++j)
     for (int i = 0; i <= 2; ++i) m.positions.emplace_back(i, j, 0);
   auto tex = [&](int v, int side) {
@@ -65,7 +55,7 @@ TexturedMesh slit_grid(double d) {
 /// first square) and u = 56 (the last one). One chart; its only self-seam is the vertical edge at
 /// that corner.
 TexturedMesh ring_strip() {
-  TexturedMesh m = empty_mesh();
+  TexturedMesh m = test::one_page_mesh(64);
   const double cx[4] = {0, 1, 1, 0}, cy[4] = {0, 0, 1, 1};
   for (int h = 0; h <= 1; ++h)
     for (int k = 0; k < 4; ++k) m.positions.emplace_back(cx[k], cy[k], h);
@@ -164,7 +154,7 @@ TEST(MergeEngineCuts, TheCutOfARingIsKeptBecauseACylinderCannotBeFlattened) {
 /// faces 3-4 (its own frame, rotated by 100 degrees), sharing the seam edge 0-4. Merged, the fan at
 /// vertex 0 would turn 400 degrees: more than a turn, on the chart's boundary.
 TexturedMesh overfull_fan() {
-  TexturedMesh m = empty_mesh();
+  TexturedMesh m = test::one_page_mesh(64);
   m.positions.emplace_back(0, 0, 0);
   for (int i = 0; i <= 5; ++i) {
     const double t = i * 72.0 * 3.141592653589793 / 180.0;

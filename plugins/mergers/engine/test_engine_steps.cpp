@@ -22,12 +22,7 @@ namespace {
 /// when `mirrored`, to (40 + 16 b, 8 + 16 a) (a reflection: its UV triangles turn clockwise), scaled
 /// by `scale` about (40, 8).
 TexturedMesh two_squares(bool mirrored, double scale = 1) {
-  TexturedMesh m;
-  Page pg;
-  pg.material = "m";
-  pg.width = pg.height = 64;
-  pg.image_path = "unused.png";
-  m.pages.push_back(pg);
+  TexturedMesh m = test::one_page_mesh(64);
   for (int j = 0; j <= 1; ++j)
     for (int i = 0; i <= 2; ++i) m.positions.emplace_back(i, j, 0);
   const int tris[4][3] = {{0, 1, 4}, {0, 4, 3}, {1, 2, 5}, {1, 5, 4}};
@@ -425,12 +420,7 @@ TEST(MergeEngineSteps, AnInputChartsOwnOverlapDoesNotRefuseTheMerge) {
 /// each, sharing the n-edge seam x = 1. The left chart's texels are (8 + 16x, 8 + 16y); the right
 /// chart's are (40 + 16 s (x - 1), 8 + 16 s y): the same layout scaled by s. Page 1024^2.
 TexturedMesh two_columns(int n, double s) {
-  TexturedMesh m;
-  Page pg;
-  pg.material = "m";
-  pg.width = pg.height = 1024;
-  pg.image_path = "unused.png";
-  m.pages.push_back(pg);
+  TexturedMesh m = test::one_page_mesh(1024);
   for (int j = 0; j <= n; ++j)
     for (int i = 0; i <= 2; ++i) m.positions.emplace_back(i, j, 0);
   auto id = [](int i, int j) { return j * 3 + i; };
@@ -552,12 +542,7 @@ TEST(MergeEngineSteps, TheUnconstrainedTrialIsKeptOnlyWhenItLeavesLessSeam) {
 /// (positions 1, 4, 2) on its right edge whose corner 4 lies `delta` texels off that edge: its UV
 /// altitude is delta, its UV area 32 delta. In 3D the sliver stands up (position 4 at z = 0.5).
 TexturedMesh square_with_sliver(double delta) {
-  TexturedMesh m;
-  Page pg;
-  pg.material = "m";
-  pg.width = pg.height = 4096;
-  pg.image_path = "unused.png";
-  m.pages.push_back(pg);
+  TexturedMesh m = test::one_page_mesh(4096);
   m.positions = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), Vec3(1, 0.5, 0.5)};
   const std::vector<Vec2> tx = {Vec2(2000, 2000), Vec2(2064, 2000), Vec2(2064, 2064), Vec2(2000, 2064),
                                 Vec2(2064 + delta, 2032)};

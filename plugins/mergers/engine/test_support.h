@@ -14,6 +14,18 @@
 
 namespace texdefrag::merge::test {
 
+/// A mesh with no faces yet and one `side` x `side`-texel page (material "m", image never read):
+/// where the hand-built meshes of these tests start.
+inline TexturedMesh one_page_mesh(int side) {
+  TexturedMesh m;
+  Page pg;
+  pg.material = "m";
+  pg.width = pg.height = side;
+  pg.image_path = "unused.png";
+  m.pages.push_back(pg);
+  return m;
+}
+
 /// fragmented_grid_mesh with each triangle's UVs scaled about its first corner by 1 + amp * (+-1)
 /// alternately (amp = 0: the fixture unchanged): merging then has to distort.
 inline TexturedMesh distorted_fragmented_grid(int nx, int ny, double amp) {

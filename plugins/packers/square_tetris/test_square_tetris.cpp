@@ -411,8 +411,8 @@ TEST(PackersSquareTetris, BlockGridPutsExactChartsOnTheInputBlockGrid) {
 TEST(PackersSquareTetris, BlockGridTrialKeepsTheSmallerPackingAndNeedsWholeBlocks) {
   // Default options (block_grid 8, max cost 0): the aligned packing, at the other packing's tail
   // order and page width, is kept only when it needs no more page area than the other; never a
-  // larger page than without the grid. Page sides that are
-  // not whole blocks (page_multiple 12) give no trial.
+  // larger page than without the grid. Page sides that are not whole blocks (page_multiple 12) give
+  // no trial.
   std::mt19937 rng(9);
   const auto polys = random_polygons(rng, 120, 3, 50, 1024);
   auto area = [](const PackRun& r) {
