@@ -348,6 +348,11 @@ class Engine {
   /// the atlas likewise when that leaves every other face using the wedge at least as open as before
   /// (or as kThinAltitude). Fills fthin_, thin_inv_, thin_alt_ and the report's thin-face counts.
   void open_thin_faces();
+  /// open_thin_faces' change to the atlas for thin face fi: its corner k moved out from its edge
+  /// (i, j) to kThinAltitude on its rest shape's side; kept (true) only when fi then turns as its
+  /// rest shape and no other face using that wedge closes below min(its altitude before,
+  /// kThinAltitude), else undone (false).
+  bool open_thin_wedge(int fi, int i, int j, int k);
   /// Smallest altitude (texels) of face f's current UV triangle, signed: negative when it turns
   /// against its rest shape (det J < 0).
   double oriented_altitude(int f) const;

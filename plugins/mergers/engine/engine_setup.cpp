@@ -151,31 +151,31 @@ void Engine::open_thin_faces() {
     Dm.col(1) = Q[2] - Q[0];
     fthin_[f] = 1;
     thin_inv_[fi] = Dm.inverse();
-    // The atlas: the same move on the current triangle, kept when no other face using that wedge
-    // closes below min(its altitude before, kThinAltitude).
-    const int w = wedge(fi, static_cast<int>(k));
-    const Vec2 a = uv(wedge(fi, static_cast<int>(i))), b = uv(wedge(fi, static_cast<int>(j))), old = uv(w);
-    const double lb = (b - a).norm();
-    const double now = oriented_altitude(fi);
-    if (lb > 0 && now < kThinAltitude) {
-      const Vec2 eb = (b - a) / lb, nb(-eb.y(), eb.x());
-      const double sd = eb.x() * (old - a).y() - eb.y() * (old - a).x();
-      const double side = rest_inv_[f].determinant() > 0 ? 1 : -1;  // its rest shape's turn
-      std::vector<std::pair<int, double>> others;
-      faces_of_wedge(w, chart(fi), [&](int g, int) {
-        if (g != fi && rest_w_[static_cast<size_t>(g)] > 0) others.emplace_back(g, oriented_altitude(g));
-      });
-      uv(w) = old + (side * kThinAltitude - sd) * nb;
-      bool ok = oriented_altitude(fi) > 0;
-      for (const auto& [g, before] : others) ok = ok && oriented_altitude(g) >= std::min(before, kThinAltitude);
-      if (ok) {
-        ++rep_.thin_faces_opened;
-      } else {
-        uv(w) = old;
-      }
-    }
+    const int ci = static_cast<int>(i), cj = static_cast<int>(j), ck = static_cast<int>(k);
+    if (oriented_altitude(fi) < kThinAltitude && open_thin_wedge(fi, ci, cj, ck)) ++rep_.thin_faces_opened;
     thin_alt_[fi] = std::min(0.5 * kThinAltitude, std::max(0.0, oriented_altitude(fi)));
   }
+}
+
+bool Engine::open_thin_wedge(int fi, int i, int j, int k) {
+  // The atlas: the move of open_thin_faces on the current triangle (corner k out from edge i-j),
+  // kept when no other face using that wedge closes below min(its altitude before, kThinAltitude).
+  const int w = wedge(fi, k);
+  const Vec2 a = uv(wedge(fi, i)), b = uv(wedge(fi, j)), old = uv(w);
+  const double lb = (b - a).norm();
+  if (!(lb > 0)) return false;
+  const Vec2 eb = (b - a) / lb, nb(-eb.y(), eb.x());
+  const double sd = eb.x() * (old - a).y() - eb.y() * (old - a).x();
+  const double side = rest_inv_[static_cast<size_t>(fi)].determinant() > 0 ? 1 : -1;  // its rest shape's turn
+  std::vector<std::pair<int, double>> others;
+  faces_of_wedge(w, chart(fi), [&](int g, int) {
+    if (g != fi && rest_w_[static_cast<size_t>(g)] > 0) others.emplace_back(g, oriented_altitude(g));
+  });
+  uv(w) = old + (side * kThinAltitude - sd) * nb;
+  bool ok = oriented_altitude(fi) > 0;
+  for (const auto& [g, before] : others) ok = ok && oriented_altitude(g) >= std::min(before, kThinAltitude);
+  if (!ok) uv(w) = old;
+  return ok;
 }
 
 void Engine::setup_charts() {
