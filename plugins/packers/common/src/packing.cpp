@@ -336,9 +336,10 @@ bool better_result(const PackResult& a, const PackResult& b) {
 
 PackResult pack_widths(const PackInput& in, const CommonSettings& s, const std::vector<int>& widths,
                        const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width, int* chosen,
-                       const PackResult* incumbent) {
+                       const PackResult* incumbent, double bar) {
   TrialBoard board(widths.size());
   if (incumbent && incumbent->pages == 1) board.seed(incumbent->total_area());
+  else if (!incumbent && bar > 0) board.seed(bar, false);
   std::vector<PackResult> results(widths.size());
   parallel_for(widths.size(), [&](size_t i) {
     TrialBound bound(board, i);
@@ -362,7 +363,7 @@ void TrialBoard::record(size_t index, const PackResult& r) {
 
 bool TrialBoard::beaten(size_t index, size_t pages, double area) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (seed_ >= 0 && (pages > 1 || area >= seed_)) return true;
+  if (seed_ >= 0 && (pages > 1 || area > seed_ || (seed_ties_lose_ && area >= seed_))) return true;
   for (size_t j = 0; j < single_.size(); ++j) {
     const double a = single_[j];
     if (j == index || a < 0) continue;

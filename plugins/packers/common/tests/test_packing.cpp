@@ -259,3 +259,19 @@ TEST(PackersCommon, TrialBoardSeededByAnEarlierPackingStopsTrialsThatCannotBeatI
   EXPECT_TRUE(board.beaten(1, 1, 81.0));
   EXPECT_FALSE(board.beaten(1, 1, 80.0));
 }
+
+TEST(PackersCommon, TrialBoardWithABarStopsOnlyTrialsOverIt) {
+  // A caller keeps the packing only as one page of at most 100 texels^2 (block-grid trial): a
+  // trial needing exactly 100 still counts, one over it or with a second page cannot be kept.
+  TrialBoard board(2);
+  board.seed(100.0, false);
+  EXPECT_FALSE(board.beaten(0, 1, 100.0));
+  EXPECT_TRUE(board.beaten(0, 1, 100.5));
+  EXPECT_TRUE(board.beaten(1, 2, 1.0));
+  PackResult one_page;
+  one_page.pages = 1;
+  one_page.sizes = {{9, 9}};
+  board.record(0, one_page);  // the trials still bound each other
+  EXPECT_TRUE(board.beaten(1, 1, 81.0));
+  EXPECT_FALSE(board.beaten(1, 1, 80.0));
+}

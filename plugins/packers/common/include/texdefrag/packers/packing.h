@@ -140,13 +140,18 @@ class TrialBoard {
   /// the earlier width).
   bool beaten(size_t index, size_t pages, double area) const;
   /// Records a single page of `area` texels^2 found before this set (an earlier packing that every
-  /// trial must beat: one needing as much area or more pages cannot).
-  void seed(double area) { seed_ = area; }
+  /// trial must beat: one needing as much area or more pages cannot). ties_lose false: a trial
+  /// needing exactly `area` still counts (a bar the caller keeps a trial under, not a rival).
+  void seed(double area, bool ties_lose = true) {
+    seed_ = area;
+    seed_ties_lose_ = ties_lose;
+  }
 
  private:
   mutable std::mutex mutex_;
   std::vector<double> single_;  ///< per trial, < 0: no single page (yet)
   double seed_ = -1;            ///< < 0: none
+  bool seed_ties_lose_ = true;  ///< whether a trial needing exactly seed_ is beaten
 };
 
 /// Early stop of pack_best_width's width trials, with the same result as packing every width in
@@ -209,9 +214,11 @@ int min_page_width(const PackInput& in, const CommonSettings& s);
 /// least min_page_width. pack_with_width: as for pack_best_width. incumbent: an earlier result the
 /// caller keeps unless one of these beats it (better_result); when it is a single page, trials stop
 /// as soon as they cannot beat it (a stopped trial's result is marked losing, TrialBound::lose).
+/// bar (> 0, without incumbent): the caller keeps the result only when it is one page of at most
+/// bar texels^2, so trials stop as soon as they open a second page or need more than that.
 PackResult pack_widths(const PackInput& in, const CommonSettings& s, const std::vector<int>& widths,
                        const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width,
-                       int* chosen = nullptr, const PackResult* incumbent = nullptr);
+                       int* chosen = nullptr, const PackResult* incumbent = nullptr, double bar = -1);
 
 /// Whether a beats b: fewer pages, or as many and less page area (sized results).
 bool better_result(const PackResult& a, const PackResult& b);
