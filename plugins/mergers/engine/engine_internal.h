@@ -16,7 +16,9 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -226,6 +228,16 @@ class Engine {
   /// The first pass without shares ended above the global bound: the atlas was restored, run again
   /// with use_budget_shares().
   bool overspent() const { return overspent_; }
+  /// Calls `f` once, on the thread running run(), when the global ARAP distortion of the run's atlas
+  /// reaches `d` (checked after the first pass, after each merge the main lane accepts and after
+  /// closing cuts; not in a run that ends overspent()).
+  void watch_distortion(double d, std::function<void()> f) {
+    watch_at_ = d;
+    watch_ = std::move(f);
+  }
+  /// run() throws Cancelled at its next queue entry or set-up step once *flag is true.
+  void cancel_when(const std::atomic<bool>* flag) { cancel_ = flag; }
+  struct Cancelled {};
 
   // ---- the steps, public for the engine's tests (run() calls setup() first)
   /// Builds rest shapes, charts, seams and grids from the atlas (once, before any move).
@@ -521,6 +533,15 @@ class Engine {
   bool across_ = false;  ///< second pass: regions are ignored
   bool budget_shares_ = false;  ///< first-pass lanes check their share of the budget (use_budget_shares)
   bool overspent_ = false;      ///< see overspent()
+  double watch_at_ = 0;                  ///< watch_distortion's level
+  std::function<void()> watch_;          ///< watch_distortion's call (empty once made)
+  const std::atomic<bool>* cancel_ = nullptr;  ///< cancel_when's flag
+  /// Calls watch_ when the main lane's error sum reached watch_at_ (on run()'s thread only).
+  void check_watch();
+  /// Throws Cancelled when *cancel_ (any thread).
+  void check_cancel() const {
+    if (cancel_ && cancel_->load(std::memory_order_relaxed)) throw Cancelled{};
+  }
   LocalSolver& solver_;
   MergeReport rep_;  ///< the run's report (lanes' counters are added to it)
   Lane main_;        ///< the main lane (the second pass; the engine's tests)

@@ -56,9 +56,19 @@ void Engine::setup() {
   if (!region_.empty() && region_.size() != nf)
     throw std::invalid_argument("merge engine: face_region has " + std::to_string(region_.size()) +
                                 " entries for " + std::to_string(nf) + " faces");
+  check_cancel();
   setup_rest_shapes();
+  check_cancel();
   setup_charts();
+  check_cancel();
   setup_seams_and_grids();
+}
+
+void Engine::check_watch() {
+  if (!watch_ || !(weight_sum_ > 0) || main_.err_sum < watch_at_ * weight_sum_) return;
+  const std::function<void()> f = std::move(watch_);
+  watch_ = nullptr;
+  f();
 }
 
 void Engine::setup_rest_shapes() {
@@ -620,6 +630,7 @@ MergeReport Engine::run(const Progress& progress) {
   rep_.charts_after_first_pass = 0;
   for (const ChartInfo& ch : charts_) rep_.charts_after_first_pass += ch.alive && !ch.faces.empty();
   rep_.distortion_after_first_pass = global_distortion();
+  check_watch();
   if (second) {
     const auto t1 = Clock::now();
     const double c1 = process_cpu_seconds();
@@ -643,6 +654,7 @@ MergeReport Engine::run(const Progress& progress) {
     const auto t2 = Clock::now();
     close_cuts(main_);
     rep_.close_cuts_seconds = std::chrono::duration<double>(Clock::now() - t2).count();
+    check_watch();
   }
   if (progress) progress(1.0);
   measure_seams_left();
@@ -835,6 +847,7 @@ void Engine::drain(Lane& L, const Progress& progress, double base, double span) 
   } stop{*this, L};
   size_t popped = 0;
   while (!L.queue.empty() && static_cast<long long>(L.rep.accepted) < L.max_merges) {
+    check_cancel();
     const Entry e = L.queue.top();
     L.queue.pop();
     if ((++popped & 255) == 0 && progress)
@@ -862,6 +875,7 @@ void Engine::drain(Lane& L, const Progress& progress, double base, double span) 
     const Lane* log = nullptr;
     if (merge_entry(e, reason, L, log)) {
       ++L.rep.accepted;
+      if (&L == &main_) check_watch();
       const int big = big0;
       mark_shapes(L, *log, big);
       ChartInfo& B = C(big);

@@ -7,13 +7,21 @@
 
 #include "engine_internal.h"
 
+#include "texdefrag/util/parallel.h"
+
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <condition_variable>
+#include <exception>
+#include <functional>
 #include <limits>
 #include <cmath>
+#include <mutex>
 #include <numeric>
+#include <optional>
 #include <queue>
+#include <thread>
 #include <unordered_map>
 
 namespace texdefrag::merge {
@@ -78,6 +86,11 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
                "With regions: when the run ends below unconstrained_trial_share x global_bound (the regions had no "
                "scarce budget to allocate), merge again from the input without regions and keep that atlas when it "
                "leaves a shorter 3D seam"),
+      opt_bool("unconstrained_trial_beside", true,
+               "With two threads or more, start the unconstrained trial on a thread of its own beside the run with "
+               "regions and drop it as soon as that run's distortion reaches unconstrained_trial_share x global_bound "
+               "(same atlas; the merger's wall time falls where the trial is kept, its memory holds two engines: the "
+               "1M-face synthetic factory 923 -> 1452 MiB); false runs it after that run"),
       opt_double("unconstrained_trial_share", 0.8,
                  "The unconstrained trial runs when the global ARAP distortion after merging with regions is below "
                  "this share of global_bound")
@@ -109,6 +122,7 @@ MergeOptions merge_options_from(const Options& o) {
   m.close_cuts = o.get_bool("close_cuts");
   m.unconstrained_trial = o.get_bool("unconstrained_trial");
   m.unconstrained_trial_share = o.get_double("unconstrained_trial_share");
+  m.unconstrained_trial_beside = o.get_bool("unconstrained_trial_beside");
   m.fan_targets = o.get_bool("fan_targets");
   m.fan_margin = o.get_double("fan_margin");
   m.second_pass = o.get_enum<SecondPass>("second_pass", {{"none", SecondPass::None}, {"across_regions", SecondPass::AcrossRegions}});
@@ -170,6 +184,7 @@ json MergeReport::to_json() const {
   j["unconstrained_trial_run"] = unconstrained_trial_run;
   j["unconstrained_trial_kept"] = unconstrained_trial_kept;
   j["regions_seam_left_length_3d"] = regions_seam_left_length_3d;
+  j["unconstrained_trial_beside"] = unconstrained_trial_beside;
   j["thin_faces"] = thin_faces;
   j["thin_faces_opened"] = thin_faces_opened;
   j["distortion_in"] = distortion_in;
@@ -180,15 +195,110 @@ json MergeReport::to_json() const {
 }
 
 namespace {
+/// The unconstrained trial (docs/mergers.md, "Unconstrained trial"): a merge of the input atlas
+/// without regions. With two threads or more it starts on a thread of its own beside the run with
+/// regions (whose first pass spreads its regions over the threads, while the trial's is one queue)
+/// and is dropped as soon as that run's distortion reaches the share under which the trial is used;
+/// when it is needed after all, it runs again at the end. Its result does not depend on where or
+/// when it ran: the engine's output is the same for any thread count.
+class Trial {
+ public:
+  /// @param input  the atlas given to the merger (the trial beside copies it; finish() consumes it)
+  Trial(const TexturedMesh& mesh, const Topology& topo, Atlas& input, const MergeOptions& opt, LocalSolver& solver)
+      : mesh_(mesh), topo_(topo), input_(input), opt_(opt), solver_(solver) {}
+  Trial(const Trial&) = delete;
+  Trial& operator=(const Trial&) = delete;
+  ~Trial() {
+    drop();
+    wait();
+  }
+  /// Starts the trial on a thread of its own.
+  void start_beside() {
+    started_ = true;
+    thread_ = std::thread([this] { run_beside(); });
+  }
+  /// The trial will not be needed: a trial running beside stops at its next queue entry.
+  void drop() { drop_ = true; }
+  /// "off" (not started beside), "dropped" (stopped before its end) or "ended"; after finish().
+  const char* beside_state() const { return !started_ ? "off" : beside_ ? "ended" : "dropped"; }
+  /// Waits for the trial beside to end or stop, reporting its progress meanwhile (none when it
+  /// never started). An error it met is kept for finish().
+  void wait(const Progress& progress = {});
+  /// The trial's report, its atlas in `atlas`: the one run beside when it ran to its end (rethrows
+  /// its error), else run now on this thread.
+  MergeReport finish(Atlas& atlas, const Progress& progress);
+
+ private:
+  MergeReport run(Atlas& atlas, const Progress& progress, const std::atomic<bool>* cancel) const {
+    const std::vector<int> no_regions;  // (the engine keeps a reference)
+    detail::Engine e(mesh_, topo_, atlas, no_regions, opt_, solver_);
+    e.cancel_when(cancel);
+    return e.run(progress);
+  }
+  void run_beside();
+
+  const TexturedMesh& mesh_;
+  const Topology& topo_;
+  Atlas& input_;
+  const MergeOptions& opt_;
+  LocalSolver& solver_;
+  std::thread thread_;
+  bool started_ = false;
+  std::atomic<bool> drop_{false};
+  std::atomic<double> fraction_{0};  ///< progress of the trial beside
+  std::mutex mtx_;
+  std::condition_variable ended_;
+  bool ended_flag_ = false;      ///< under mtx_
+  std::optional<MergeReport> beside_;  ///< the trial beside's report when it ran to its end
+  Atlas beside_atlas_;
+  std::exception_ptr error_;
+};
+
+void Trial::run_beside() {
+  try {
+    beside_atlas_ = input_;
+    beside_ = run(beside_atlas_, [this](double f) { fraction_ = f; }, &drop_);
+  } catch (const detail::Engine::Cancelled&) {
+    beside_atlas_ = Atlas();
+  } catch (...) {
+    error_ = std::current_exception();
+  }
+  std::lock_guard<std::mutex> lock(mtx_);
+  ended_flag_ = true;
+  ended_.notify_all();
+}
+
+void Trial::wait(const Progress& progress) {
+  if (!thread_.joinable()) return;
+  std::unique_lock<std::mutex> lock(mtx_);
+  while (!ended_.wait_for(lock, std::chrono::milliseconds(100), [this] { return ended_flag_; }))
+    if (progress) progress(fraction_);
+  lock.unlock();
+  thread_.join();
+}
+
+MergeReport Trial::finish(Atlas& atlas, const Progress& progress) {
+  wait(progress);
+  if (error_) std::rethrow_exception(error_);
+  if (beside_) {
+    atlas = std::move(beside_atlas_);
+    return *beside_;
+  }
+  atlas = std::move(input_);
+  return run(atlas, progress, nullptr);
+}
+
 MergeReport run_with_regions(const TexturedMesh& mesh, const Topology& topo, Atlas& atlas,
                              const std::vector<int>& face_region, const MergeOptions& opt, LocalSolver& solver,
-                             const Progress& progress) {
+                             const Progress& progress, const std::function<void()>& over_share) {
   {
     detail::Engine e(mesh, topo, atlas, face_region, opt, solver);
+    if (over_share) e.watch_distortion(opt.unconstrained_trial_share * opt.global_bound, over_share);
     MergeReport r = e.run(progress);
     if (!e.overspent()) return r;
   }
   detail::Engine e(mesh, topo, atlas, face_region, opt, solver);
+  if (over_share) e.watch_distortion(opt.unconstrained_trial_share * opt.global_bound, over_share);
   e.use_budget_shares();
   MergeReport r = e.run(progress);
   r.first_pass_budget_shares = true;
@@ -198,22 +308,31 @@ MergeReport run_with_regions(const TexturedMesh& mesh, const Topology& topo, Atl
 
 MergeReport run_merges(const TexturedMesh& mesh, const Topology& topo, Atlas& atlas, const std::vector<int>& face_region,
                        const MergeOptions& opt, LocalSolver& solver, const Progress& progress) {
-  const bool trial = opt.unconstrained_trial && !face_region.empty();
-  Atlas input;
-  if (trial) input = atlas;
-  MergeReport r = run_with_regions(mesh, topo, atlas, face_region, opt, solver, progress);
-  if (!trial || !(r.distortion_out < opt.unconstrained_trial_share * opt.global_bound)) return r;
+  if (!opt.unconstrained_trial || face_region.empty())
+    return run_with_regions(mesh, topo, atlas, face_region, opt, solver, progress, {});
+  Atlas input = atlas;
+  Trial trial(mesh, topo, input, opt, solver);
+  const bool beside = opt.unconstrained_trial_beside && thread_count() > 1 && solver.reentrant();
+  if (beside) trial.start_beside();
+  MergeReport r = run_with_regions(mesh, topo, atlas, face_region, opt, solver, progress,
+                                   beside ? std::function<void()>([&trial] { trial.drop(); }) : nullptr);
+  if (!(r.distortion_out < opt.unconstrained_trial_share * opt.global_bound)) {
+    trial.drop();
+    trial.wait();
+    r.unconstrained_trial_beside = trial.beside_state();
+    return r;
+  }
   // note: the regions spend a scarce budget on planar merges first; where the run leaves most of it
   // unspent they only held back merges across region borders (docs/mergers.md, "Unconstrained trial").
-  const std::vector<int> no_regions;  // (the engine keeps a reference)
-  detail::Engine e(mesh, topo, input, no_regions, opt, solver);
-  MergeReport t = e.run(progress);
+  Atlas trial_atlas;
+  MergeReport t = trial.finish(trial_atlas, progress);
   const double with_regions = r.seam_left_length_3d();
   const bool keep = t.seam_left_length_3d() < with_regions;
   if (keep) {
-    atlas = std::move(input);
+    atlas = std::move(trial_atlas);
     r = std::move(t);
   }
+  r.unconstrained_trial_beside = trial.beside_state();
   r.unconstrained_trial_run = true;
   r.unconstrained_trial_kept = keep;
   r.regions_seam_left_length_3d = with_regions;

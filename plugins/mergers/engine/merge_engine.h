@@ -74,6 +74,10 @@ struct MergeOptions {
   /// atlas when it leaves a shorter 3D seam (docs/mergers.md, "Unconstrained trial").
   bool unconstrained_trial = false;
   double unconstrained_trial_share = 0.8;  ///< [0, 1]: share of global_bound under which the trial runs
+  /// With two threads or more the trial starts on a thread of its own beside the run with regions and
+  /// is dropped when that run's distortion reaches the share (same atlas, less wall time, two engines in
+  /// memory); false runs it after that run.
+  bool unconstrained_trial_beside = true;
   /// Solve with target shapes that close over-full boundary fans (docs/mergers.md step 6).
   bool fan_targets = false;
   double fan_margin = 0.01;  ///< fan targets close at 2 pi (1 - fan_margin)
@@ -113,6 +117,9 @@ struct MergeReport {
   /// 3D seam length the run with regions left cut (seam_left_length_3d of the kept run is the other).
   bool unconstrained_trial_run = false, unconstrained_trial_kept = false;
   double regions_seam_left_length_3d = 0;
+  /// The trial on a thread beside the run with regions (two threads or more): "ended" (it ran to its
+  /// end), "dropped" (stopped when that run's distortion reached the trial's share), or "off".
+  std::string unconstrained_trial_beside = "off";
   double first_pass_seconds = 0;   ///< wall time of the first pass (its lanes run side by side)
   double second_pass_seconds = 0;  ///< wall time of the second pass (one queue)
   double close_cuts_seconds = 0;   ///< wall time of closing cuts (close_cuts)

@@ -1,6 +1,7 @@
 // Unit tests of the merge engine's pieces: rigid fit, segment crossings, planarity terms, the shared
 // per-triangle algebra, the ARAP solver, and the engine itself on hand-built meshes.
 #include "arap_solver.h"
+#include "engine_internal.h"
 #include "geometry2d.h"
 #include "local_problem.h"
 #include "merge_engine.h"
@@ -577,6 +578,64 @@ TEST(MergeEngine, KeptSeamFiguresAreTheSeamsOwn) {
     std::printf("regions %d: %zu merges, %zu seams re-scored from kept figures\n", regions ? 1 : 0, r.accepted,
                 r.seam_figures_kept);
   }
+}
+
+/// run_merges with the unconstrained trial on the 20 x 16 distorted grid in squares of regions: its
+/// report and atlas, with `threads` threads and the trial beside or after the run with regions.
+std::pair<MergeReport, Atlas> trial_run(int threads, bool beside, double share) {
+  set_thread_count(threads);
+  test::Run run(test::distorted_fragmented_grid(20, 16, 0.08));
+  MergeOptions o;
+  o.priority = Priority::MMethod;
+  o.unconstrained_trial = true;
+  o.unconstrained_trial_share = share;
+  o.unconstrained_trial_beside = beside;
+  ArapSolver solver;
+  MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, squares(run.mesh, 3.0), o, solver, {});
+  set_thread_count(0);
+  test::expect_valid_atlas(run);
+  return {r, run.ctx.atlas};
+}
+
+TEST(MergeEngine, TheTrialBesideGivesTheTrialAfter) {
+  // The unconstrained trial on a thread beside the run with regions (2 threads) against the trial run
+  // after it (1 thread): the same decision and atlas bit for bit, whether the trial is needed and
+  // kept (with regions and no second pass the run ends far under 0.8 x the bound), or not needed (a
+  // share of 0.05: dropped beside, or ended when it was quicker).
+  for (double share : {0.8, 0.05}) {
+    const auto [after, atlas_after] = trial_run(1, false, share);
+    const auto [beside, atlas_beside] = trial_run(2, true, share);
+    const std::string what = "share " + std::to_string(share);
+    EXPECT_EQ(after.unconstrained_trial_beside, "off") << what;
+    EXPECT_EQ(after.unconstrained_trial_run, share > 0.5) << what << " E " << after.distortion_out;
+    EXPECT_EQ(beside.unconstrained_trial_run, after.unconstrained_trial_run) << what;
+    EXPECT_EQ(beside.unconstrained_trial_kept, after.unconstrained_trial_kept) << what;
+    if (share > 0.5) {
+      EXPECT_TRUE(after.unconstrained_trial_kept) << what;
+      EXPECT_EQ(beside.unconstrained_trial_beside, "ended") << what;
+    } else {
+      EXPECT_NE(beside.unconstrained_trial_beside, "off") << what;
+    }
+    std::printf("%s: trial run %d, kept %d, beside %s\n", what.c_str(), after.unconstrained_trial_run ? 1 : 0,
+                after.unconstrained_trial_kept ? 1 : 0, beside.unconstrained_trial_beside.c_str());
+    EXPECT_EQ(beside.accepted, after.accepted) << what;
+    EXPECT_EQ(beside.seam_left_length_3d(), after.seam_left_length_3d()) << what;
+    EXPECT_EQ(atlas_beside.face_chart, atlas_after.face_chart) << what;
+    EXPECT_EQ(atlas_beside.face_wedge, atlas_after.face_wedge) << what;
+    ASSERT_EQ(atlas_beside.wedge_uv.size(), atlas_after.wedge_uv.size()) << what;
+    for (size_t w = 0; w < atlas_after.wedge_uv.size(); ++w)
+      ASSERT_TRUE(atlas_beside.wedge_uv[w] == atlas_after.wedge_uv[w]) << "wedge " << w << " " << what;
+  }
+}
+
+TEST(MergeEngine, ACancelledRunThrowsAtItsFirstStep) {
+  test::Run run(test::distorted_fragmented_grid(4, 4, 0.08));
+  ArapSolver solver;
+  const std::atomic<bool> cancel{true};
+  const std::vector<int> no_regions;  // (the engine keeps a reference)
+  detail::Engine e(run.mesh, run.topo, run.ctx.atlas, no_regions, MergeOptions{}, solver);
+  e.cancel_when(&cancel);
+  EXPECT_THROW(e.run({}), detail::Engine::Cancelled);
 }
 
 TEST(MergeEngine, RegionsOfTheWrongSizeAreAnError) {
