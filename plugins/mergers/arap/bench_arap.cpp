@@ -6,6 +6,8 @@
 // - whole real tiles (the engine with each solver, M-method order, defaults);
 // - the first pass's regions side by side (docs/mergers.md, "Parallel first pass"): t016_L19 with one
 //   region per dominant normal axis, best.json's merger options, 1 and 2 threads.
+// - the unconstrained trial beside the run with regions or after it (docs/speed.md, "The
+//   unconstrained trial beside the run with regions"): t078_L17 and t016_L19, 2 threads;
 // - the local problems best.json's merger hands to its solver on t016_L19 (normal-axis regions, one
 //   thread), solved again by the solver best.json configures (injectivity repair on, floor 0.2): all
 //   of them and those whose repair runs, with a checksum of every solution (the label), so a faster
@@ -61,6 +63,7 @@ const TexturedMesh& tile(const std::string& rel) {
 }
 const char* const kT015 = "contextcapture/prod5_t015_L18/t015_L18.obj";
 const char* const kT016L19 = "contextcapture/prod5_t016_L19/t016_L19.obj";
+const char* const kT078L17 = "contextcapture/rural_t007_078_L17/t078_L17.obj";
 
 /// The local problems of an M-method run (Eigen solver) on t015_L18, in the order they were posed.
 const std::vector<LocalProblem>& recorded_problems() {
@@ -319,6 +322,52 @@ void BM_RegionLanesT016L19(benchmark::State& state) {
   state.counters["E"] = r.distortion_out;
 }
 
+// Arguments: case (0 = t078_L17, 1 = t016_L19, both with best.json's share 0.95: the trial runs and is
+// kept; 2 = t016_L19 with a share of 0.3, which the run with regions reaches: the trial is not
+// needed), trial beside (1) or after (0); 2 threads, normal-axis regions, best.json's merger options
+// with the trial on. Counters: CPU seconds (all threads), trial run / kept, beside (0 off, 1 dropped,
+// 2 ended), charts out, E; the label is a checksum of the atlas (the same beside and after).
+void BM_UnconstrainedTrial(benchmark::State& state) {
+  const TexturedMesh& m = tile(state.range(0) == 0 ? kT078L17 : kT016L19);
+  const double share = state.range(0) == 2 ? 0.3 : 0.95;
+  if (m.faces.empty()) return state.SkipWithError("shared data absent");
+  const Topology topo = build_topology(m);
+  const ChartSet cs = build_charts(m, topo);
+  const std::vector<int> regions = normal_axis_regions(m);
+  set_thread_count(2);
+  MergeReport r;
+  Atlas at;
+  const std::clock_t c0 = std::clock();
+  for (auto _ : state) {
+    at = cs.atlas;
+    ArapSolver solver = best_json_solver();
+    MergeOptions o;  // best.json's merger options
+    o.priority = Priority::MMethod;
+    o.second_pass = SecondPass::AcrossRegions;
+    o.second_pass_local_bound = 0.1;
+    o.second_pass_seam_refusal = false;
+    o.min_singular_value = 0.2;
+    o.close_cuts = true;
+    o.unconstrained_trial = true;
+    o.unconstrained_trial_share = share;
+    o.unconstrained_trial_beside = state.range(1) != 0;
+    r = run_merges(m, topo, at, regions, o, solver, {});
+  }
+  const double cpu = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
+  set_thread_count(0);
+  state.counters["cpu_s"] = cpu / static_cast<double>(state.iterations());
+  state.counters["trial_run"] = r.unconstrained_trial_run ? 1 : 0;
+  state.counters["trial_kept"] = r.unconstrained_trial_kept ? 1 : 0;
+  state.counters["beside"] = r.unconstrained_trial_beside == "off" ? 0 : r.unconstrained_trial_beside == "dropped" ? 1 : 2;
+  state.counters["charts_out"] = static_cast<double>(r.charts_out);
+  state.counters["E"] = r.distortion_out;
+  std::uint64_t h = fnv1a(14695981039346656037ull, at.wedge_uv.data(), at.wedge_uv.size());
+  h = fnv1a(h, at.face_wedge.data(), at.face_wedge.size());
+  char label[32];
+  std::snprintf(label, sizeof label, "atlas %016llx", static_cast<unsigned long long>(h));
+  state.SetLabel(label);
+}
+
 void BM_TileT015Eigen(benchmark::State& s) { whole_tile(s, kT015, eigen_solver); }
 void BM_TileT015Ceres(benchmark::State& s) { whole_tile(s, kT015, ceres_suitesparse); }
 void BM_TileT016L19Eigen(benchmark::State& s) { whole_tile(s, kT016L19, eigen_solver); }
@@ -337,6 +386,7 @@ BENCHMARK(BM_TileT016L19Eigen)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_TileT016L19Ceres)->Unit(benchmark::kSecond)->Iterations(1);
 BENCHMARK(BM_BestJsonProblems)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(3);
 BENCHMARK(BM_RegionLanesT016L19)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_UnconstrainedTrial)->ArgsProduct({{0, 1, 2}, {0, 1}})->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
 
 }  // namespace
 }  // namespace texdefrag::merge
