@@ -153,7 +153,11 @@ class Engine::BatchPool {
 void Engine::DeletePool::operator()(BatchPool* p) const { delete p; }
 
 void Engine::start_speculation(Lane& L) {
-  speculating_ = &L == &main_ && across_ && spec_width_ > 1 && solver_.reentrant();
+  // note: only the main lane speculates. The first pass's region lanes drain side by side, so they
+  // must not write the engine's shared members (speculating_ is false and stamp_high_ unused there;
+  // the second pass starts from the main lane's stamps, the highest of every lane's, join_lanes).
+  if (&L != &main_) return;
+  speculating_ = across_ && spec_width_ > 1 && solver_.reentrant();
   stamp_high_ = std::max({stamp_high_, L.epoch, L.seen_stamp});
   if (speculating_) pool_.reset(new BatchPool(std::min(thread_count(), spec_width_) - 1));
 }
