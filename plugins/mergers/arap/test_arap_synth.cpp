@@ -98,5 +98,37 @@ TEST(MergersArapSynth, InjectivityRepairKeepsTheBudgetAndIsTheSameOnEveryThreadC
   EXPECT_EQ(out[1].wedge_uv, out[0].wedge_uv);
 }
 
+TEST(MergersArapSynth, PartialWeldsKeepTheBudgetAndAreTheSameOnEveryThreadCount) {
+  // Moves refused as fan_overlap at a welded seam end are tried again with that end unwelded
+  // (docs/mergers.md step 7, "Partial welds"), on the first pass's lanes and the second pass's
+  // speculation alike: the result must not depend on the thread count, and stay flip-free and
+  // within the budget, every face kept.
+  json opt = best_merger_options();
+  opt["partial_weld_tries"] = 3;
+  opt["close_cuts"] = true;
+  std::vector<Atlas> out;
+  std::vector<json> reports;
+  for (const int threads : {1, 4}) {
+    set_thread_count(threads);
+    test::Run run(hard_building(163, 5000));
+    ASSERT_TRUE(run.detect("detectors.region_growing"));
+    run.merge("mergers.arap", opt);
+    test::expect_valid_atlas(run);
+    const DistortionSummary d = atlas_distortion(run.mesh, run.ctx.atlas, run.charts.atlas.face_chart);
+    EXPECT_EQ(d.flipped, 0u) << threads;
+    EXPECT_LE(d.arap, 0.025 * (1 + 1e-9)) << threads;
+    out.push_back(run.ctx.atlas);
+    reports.push_back(run.report);
+  }
+  set_thread_count(0);
+  EXPECT_GT(reports[0].value("partial_weld_retries", 0), 0);
+  EXPECT_GT(reports[0].value("partial_welds_accepted", 0), 0);
+  EXPECT_EQ(reports[1]["rejected"], reports[0]["rejected"]);
+  for (const char* k : {"partial_weld_retries", "partial_welds_accepted", "merges_attempted", "merges_accepted"})
+    EXPECT_EQ(reports[1].value(k, -1), reports[0].value(k, -1)) << k;
+  EXPECT_EQ(out[1].face_wedge, out[0].face_wedge);
+  EXPECT_EQ(out[1].wedge_uv, out[0].wedge_uv);
+}
+
 }  // namespace
 }  // namespace texdefrag::merge

@@ -211,6 +211,9 @@ struct Move {
   std::vector<int> moved_ids;              ///< checks: live boundary edges with a moved wedge
   double turn = 0;                         ///< check_orientation: the merged chart's ChartInfo::turn
   OrientationGroups groups{};              ///< check_orientation: the merged chart's ChartInfo::groups
+  int fan_wedge = -1;                      ///< check_fans: the wedge whose fan was refused (-1: none)
+  size_t open_ends = 0;                    ///< partial weld: seam vertices left unwelded (leave_open)
+  bool repaired_earlier = false;           ///< partial weld: an earlier try of the move needed the repair
 };
 
 class Engine {
@@ -270,6 +273,13 @@ class Engine {
   /// try_merge without the commit: returns true with the move left in the atlas (for commit(mv) or
   /// rollback(L)), or false with `reason` set and the atlas restored.
   bool evaluate_merge(int a, int b, std::string& reason, Lane& L, Move& mv);
+  /// One try of evaluate_merge with the seam vertices in `open` left unwelded (partial_weld_tries).
+  bool attempt_merge(int a, int b, const std::vector<int>& open, std::string& reason, Lane& L, Move& mv);
+  /// Drops the seam edges touching a vertex of `open` from the move and pairs only the others' wedges.
+  void leave_open(Move& mv, const std::vector<int>& open);
+  /// After a fan_overlap refusal: the vertex of the refused fan when it is a welded end of the seam
+  /// (one welded seam edge touches it) and another seam edge would stay welded; else -1.
+  int open_seam_end(const Move& mv) const;
   /// settle_welded without the commit (same contract as evaluate_merge).
   bool evaluate_welded(Move& mv, std::string& reason, Lane& L);
   /// Whether raising lane L's error sum to new_sum breaks the budget: the global bound when
@@ -351,6 +361,8 @@ class Engine {
   bool face_mirrored(int f) const { return fmirror_[static_cast<size_t>(f)] != 0; }
   /// Global area-weighted ARAP distortion of the current atlas (maintained incrementally).
   double global_distortion() const { return weight_sum_ > 0 ? main_.err_sum / weight_sum_ : 0; }
+  /// The main lane's counters so far (the run adds them to its report at the end).
+  const MergeReport& main_counters() const { return main_.rep; }
 
  private:
   // ---- static data
@@ -430,7 +442,7 @@ class Engine {
   int chart_orientation(int c);
   const char* check_folds(const Move& mv) const;
   const char* check_distortion(Move& mv);
-  const char* check_fans(const Move& mv);
+  const char* check_fans(Move& mv);
   const char* check_boundary(Move& mv);
   const char* check_triangles(const Move& mv);
   // ---- commit parts
@@ -458,6 +470,8 @@ class Engine {
   bool island_lookahead(int a, int b, int max_steps) const;
   bool candidate(int a, int b) const;
   void pair_points(int big, int small, std::vector<std::pair<int, int>>& pairs);
+  /// pair_points over the given seam edges only (edges between chart big and one other chart).
+  void seam_pairs(int big, const std::vector<int>& edges, std::vector<std::pair<int, int>>& pairs);
   void drain(Lane& L, const Progress& progress, double base, double span);
   /// The region-constrained first pass: one lane per region, run on the thread pool when the solver
   /// allows it, combined in region order (the result does not depend on the thread count).
@@ -501,7 +515,8 @@ class Engine {
   bool settle(Speculation& s, std::string& reason, Lane& L);
   /// Whether speculation s, evaluated with its lane's repair_off, was refused for inverted triangles
   /// that L would now repair (L's error sum fell back under the repair share since): then s cannot
-  /// stand for L's evaluation.
+  /// stand for L's evaluation. Also whether an earlier partial-weld try of s's move needed the
+  /// repair that L has spent since (L would have stopped at that try).
   bool repair_skipped_wrongly(const Speculation& s, const Lane& L) const;
   void drop(Speculation& s);
   /// Drops the speculations of charts a or b: every one, or (in_atlas_only) those whose move is in

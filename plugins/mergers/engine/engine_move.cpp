@@ -24,7 +24,26 @@ bool Engine::try_merge(int a, int b, std::string& reason, Lane& L) {
 }
 
 bool Engine::evaluate_merge(int a, int b, std::string& reason, Lane& L, Move& mv) {
+  // Partial welds (docs/mergers.md step 7): a seam end whose welded fan would wrap past a turn is
+  // left unwelded and the move tried again; its seam edge stays cut, a slit the fan can open into.
+  std::vector<int> open;
+  bool repaired = false;
+  for (int tries = 0;; ++tries) {
+    const bool ok = attempt_merge(a, b, open, reason, L, mv);
+    mv.repaired_earlier = repaired;
+    if (ok) return true;
+    repaired = repaired || mv.repaired;
+    const int v = tries < opt_.partial_weld_tries && reason == "fan_overlap" ? open_seam_end(mv) : -1;
+    if (v < 0) return false;
+    open.push_back(v);
+    --L.rep.attempted;  // note: the same move again; begin_move counts it once more
+    ++L.rep.partial_weld_retries;
+  }
+}
+
+bool Engine::attempt_merge(int a, int b, const std::vector<int>& open, std::string& reason, Lane& L, Move& mv) {
   mv = begin_move(a, b, L);
+  if (!open.empty()) leave_open(mv, open);
   align(mv);
   if (const char* why = check_orientation(mv)) {
     reason = why;
@@ -33,6 +52,32 @@ bool Engine::evaluate_merge(int a, int b, std::string& reason, Lane& L, Move& mv
   }
   weld(mv);
   return evaluate_welded(mv, reason, L);
+}
+
+void Engine::leave_open(Move& mv, const std::vector<int>& open) {
+  auto is_open = [&](int v) { return std::find(open.begin(), open.end(), v) != open.end(); };
+  std::vector<int> kept;
+  for (int ei : mv.seam_edges) {
+    const Edge& e = topo_.edges[static_cast<size_t>(ei)];
+    if (!is_open(e.a) && !is_open(e.b)) kept.push_back(ei);
+  }
+  mv.seam_edges = std::move(kept);
+  seam_pairs(mv.big, mv.seam_edges, mv.pairs);
+  mv.open_ends = open.size();
+}
+
+int Engine::open_seam_end(const Move& mv) const {
+  // note: only an end of the welded seam: opening a vertex inside it would cut a hole in the chart,
+  // and the last welded edge is kept so that the charts still share an edge (never a single vertex).
+  const int w = mv.fan_wedge;
+  if (w < 0 || mv.seam_edges.size() < 2 || std::find(mv.reps.begin(), mv.reps.end(), w) == mv.reps.end()) return -1;
+  const int v = at_.wedge_vertex[static_cast<size_t>(w)];
+  int touching = 0;
+  for (int ei : mv.seam_edges) {
+    const Edge& e = topo_.edges[static_cast<size_t>(ei)];
+    touching += e.a == v || e.b == v ? 1 : 0;
+  }
+  return touching == 1 ? v : -1;
 }
 
 bool Engine::settle_welded(Move& mv, std::string& reason, Lane& L) {
@@ -469,8 +514,15 @@ const char* Engine::check(Move& mv) {
   if (!mv.solved) return "flip";
   if (const char* why = check_shapes(mv)) return why;
   if (const char* why = check_folds(mv)) return why;
+  // note: with partial welds the fans come before the distortion, so that whether a move is tried
+  // again never depends on the budget, which a second-pass speculation's lane does not know
+  // (engine_speculate.cpp): the same tries on every thread count.
+  const bool fans_first = opt_.partial_weld_tries > 0;
+  if (fans_first)
+    if (const char* why = check_fans(mv)) return why;
   if (const char* why = check_distortion(mv)) return why;
-  if (const char* why = check_fans(mv)) return why;
+  if (!fans_first)
+    if (const char* why = check_fans(mv)) return why;
   if (const char* why = check_boundary(mv)) return why;
   return check_triangles(mv);
 }
@@ -567,7 +619,7 @@ bool Engine::overlap_is_new(const Move& mv, Before& b, const Tri2& x, const Tri2
   return !triangles_overlap(tri2_before(b, x.face), tri2_before(b, y.face));
 }
 
-const char* Engine::check_fans(const Move& mv) {
+const char* Engine::check_fans(Move& mv) {
   Lane& L = *mv.lane;
   Before before;
   // The triangles around a wedge must not wrap over each other. Boundary segments that share a
@@ -595,6 +647,7 @@ const char* Engine::check_fans(const Move& mv) {
         constexpr double kTwoPi = 6.283185307179586;
         if (then >= kTwoPi * (1 - 1e-9) && now <= then + 1e-9) continue;
       }
+      mv.fan_wedge = w;
       return "fan_overlap";
     }
   return nullptr;
@@ -773,6 +826,7 @@ void Engine::commit(Move& mv) {
   Lane& L = *mv.lane;
   if (mv.mirrored) ++L.rep.accepted_mirrored;
   if (mv.repaired) ++L.rep.repairs_accepted;
+  if (mv.open_ends > 0) ++L.rep.partial_welds_accepted;
   if (mv.self) {
     ++L.rep.cuts_closed;
     L.rep.cut_edges_closed += mv.seam_edges.size();

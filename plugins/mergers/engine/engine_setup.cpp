@@ -396,8 +396,12 @@ bool Engine::candidate(int a, int b) const {
 }
 
 void Engine::pair_points(int big, int small, std::vector<std::pair<int, int>>& pairs) {
+  seam_pairs(big, C(big).adj[small], pairs);
+}
+
+void Engine::seam_pairs(int big, const std::vector<int>& edges, std::vector<std::pair<int, int>>& pairs) {
   pairs.clear();
-  for (int ei : C(big).adj[small]) {
+  for (int ei : edges) {
     const Edge& e = topo_.edges[static_cast<size_t>(ei)];
     EdgeIncidence x = topo_.edge_faces[static_cast<size_t>(e.first_incidence)];
     EdgeIncidence y = topo_.edge_faces[static_cast<size_t>(e.first_incidence + 1)];
@@ -608,6 +612,8 @@ void add_counters(MergeReport& to, const MergeReport& from) {
   to.repairs_tried += from.repairs_tried;
   to.repairs_untangled += from.repairs_untangled;
   to.repairs_accepted += from.repairs_accepted;
+  to.partial_weld_retries += from.partial_weld_retries;
+  to.partial_welds_accepted += from.partial_welds_accepted;
   to.cuts_attempted += from.cuts_attempted;
   to.cuts_closed += from.cuts_closed;
   to.cut_edges_closed += from.cut_edges_closed;

@@ -278,6 +278,9 @@ void Engine::pick_lookahead(const Entry& e, std::vector<Speculation*>& batch) {
 bool Engine::repair_skipped_wrongly(const Speculation& s, const Lane& L) const {
   // note: a move refused as a flip without being solved is one whose solve ended with inverted
   // triangles (check's first test); with the repair on, L's solve would have repaired it.
+  // A partial weld's earlier try that needed the repair: L, with the repair spent, would have
+  // refused that try as a flip and tried no further.
+  if (s.mv.repaired_earlier && repair_spent(L)) return true;
   return s.lane.repair_off && !s.mv.solved && s.reason == "flip" && !repair_spent(L);
 }
 

@@ -99,6 +99,10 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
                "Solve with target shapes whose angles close every boundary fan of the merged chart that its input UV "
                "angles would open past a full turn (the move is still measured against the input UV triangles)"),
       opt_double("fan_margin", 0.01, "Fan targets close a boundary fan at 2 pi (1 - fan_margin)").range(0, 0.5),
+      opt_int("partial_weld_tries", 0,
+              "A move refused as fan_overlap at a welded end of its seam is tried again with that seam vertex left "
+              "unwelded (its seam edge stays cut), up to this many times; 0: never")
+          .range(0, 16),
       opt_bool("cross_page", true,
                "Merge charts whose texels lie on different input pages (each face keeps its own page's texels as "
                "rest shape); false keeps every chart on one input page"),
@@ -125,6 +129,7 @@ MergeOptions merge_options_from(const Options& o) {
   m.unconstrained_trial_beside = o.get_bool("unconstrained_trial_beside");
   m.fan_targets = o.get_bool("fan_targets");
   m.fan_margin = o.get_double("fan_margin");
+  m.partial_weld_tries = static_cast<int>(o.get_int("partial_weld_tries"));
   m.second_pass = o.get_enum<SecondPass>("second_pass", {{"none", SecondPass::None}, {"across_regions", SecondPass::AcrossRegions}});
   m.second_pass_priority =
       o.get_enum<Priority>("second_pass_priority", {{"planarity", Priority::Planarity}, {"mmethod", Priority::MMethod}});
@@ -170,6 +175,8 @@ json MergeReport::to_json() const {
   j["repairs_tried"] = repairs_tried;
   j["repairs_untangled"] = repairs_untangled;
   j["repairs_accepted"] = repairs_accepted;
+  j["partial_weld_retries"] = partial_weld_retries;
+  j["partial_welds_accepted"] = partial_welds_accepted;
   j["cut_edges_in"] = cut_edges_in;
   j["cuts_attempted"] = cuts_attempted;
   j["cuts_closed"] = cuts_closed;

@@ -81,6 +81,10 @@ struct MergeOptions {
   /// Solve with target shapes that close over-full boundary fans (docs/mergers.md step 6).
   bool fan_targets = false;
   double fan_margin = 0.01;  ///< fan targets close at 2 pi (1 - fan_margin)
+  /// A move refused as fan_overlap at a welded seam end is tried again with that seam vertex left
+  /// unwelded (its seam edge stays cut), up to this many times per move; 0 = never (docs/mergers.md
+  /// step 7, "Partial welds").
+  int partial_weld_tries = 0;
   /// Queue entries the second pass evaluates side by side (docs/mergers.md, "Parallel second pass"):
   /// 0 = twice thread_count() (1 with one thread), 1 = one at a time. Not a stage option (the result is the same for any
   /// value); tests set it to run the speculation on one thread.
@@ -134,6 +138,8 @@ struct MergeReport {
   /// Injectivity repair (mergers.arap's `untangle`): solves that ended with inverted triangles and
   /// were repaired, of those the ones left without any, and the moves then accepted.
   size_t repairs_tried = 0, repairs_untangled = 0, repairs_accepted = 0;
+  /// partial_weld_tries: moves tried again with a seam end left unwelded, and the moves accepted so.
+  size_t partial_weld_retries = 0, partial_welds_accepted = 0;
   size_t cut_edges_in = 0;       ///< self-seam edges (both sides in one chart) when closing started
   size_t cuts_attempted = 0;     ///< closing moves tried (close_cuts)
   size_t cuts_closed = 0;        ///< closing moves accepted

@@ -220,6 +220,70 @@ TEST(MergeEngineCuts, FanTargetsCloseAnOverfullBoundaryFan) {
   }
 }
 
+/// Two charts A (faces 0-3) and B (faces 4-7) sharing the two-edge seam v - s1 - s0 (vertices 0, 1,
+/// 2), v on the mesh boundary. In texels (x 8 about (32, 32)) A is v (0, 0), s1 (1, 0), s0 (2, 0),
+/// a1 (1, 1), a2 (2, 1), a0 (-0.983, -0.688): its fan at v opens 45 + 170 = 215 degrees, at s1 180.
+/// B's input layout turns v about s1: v (0.826, -0.985), b1 (1.6, -1.039), b2 (2.039, -0.6),
+/// b0 (-0.253, -1.511), s1 and s0 as A's, all moved by (0.25, -2.2): its fan at v opens 84 + 150 =
+/// 234 degrees, at s1 100.
+/// Welded whole, the boundary fan at v would turn 449 degrees; with v left unwelded A and B join
+/// along s1 - s0 as they are (B moved back onto A's s1 and s0), the fan at s1 turns 280 degrees and the
+/// edge v - s1 stays cut, a slit opening 80 degrees between A's v and B's.
+TexturedMesh overfull_seam_end() {
+  TexturedMesh m = test::one_page_mesh(64);
+  for (const Vec3& p : {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(2, 0, 0), Vec3(1, 1, 0), Vec3(2, 1, 0), Vec3(-1, 1, 0),
+                        Vec3(1, -1, 0), Vec3(2, -1, 0), Vec3(-1, -1, 0)})
+    m.positions.push_back(p);
+  auto t = [](double x, double y) { return Vec2(32 + 8 * x, 32 + 8 * y); };
+  const Vec2 v = t(0, 0), s1 = t(1, 0), s0 = t(2, 0), a1 = t(1, 1), a2 = t(2, 1), a0 = t(-0.983, -0.688);
+  add_face(m, {0, 1, 3}, {v, s1, a1});
+  add_face(m, {1, 2, 4}, {s1, s0, a2});
+  add_face(m, {1, 4, 3}, {s1, a2, a1});
+  add_face(m, {0, 3, 5}, {v, a1, a0});
+  // B lies 2.2 lower on the page than the seam it shares with A (a chart of its own, not joined).
+  auto tb = [&](double x, double y) { return t(x + 0.25, y - 2.2); };
+  const Vec2 vb = tb(0.826, -0.985), b1 = tb(1.6, -1.039), b2 = tb(2.039, -0.6), b0 = tb(-0.253, -1.511),
+             s1b = tb(1, 0), s0b = tb(2, 0);
+  add_face(m, {0, 6, 1}, {vb, b1, s1b});
+  add_face(m, {0, 8, 6}, {vb, b0, b1});
+  add_face(m, {1, 6, 7}, {s1b, b1, b2});
+  add_face(m, {1, 7, 2}, {s1b, b2, s0b});
+  return m;
+}
+
+TEST(MergeEngineCuts, APartialWeldLeavesAnOverfullSeamEndCut) {
+  for (int tries : {0, 1}) {
+    MergeOptions opt;
+    opt.partial_weld_tries = tries;
+    opt.global_bound = 1;  // the whole weld's cost is not the question: its fan is
+    test::Run run(overfull_seam_end());
+    ArapSolver solver{ArapSettings{}};
+    detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver);
+    engine.setup();
+    const Atlas& at = run.ctx.atlas;
+    ASSERT_EQ(at.num_charts, 2);
+    std::string reason;
+    const bool ok = engine.try_merge(at.face_chart[0], at.face_chart[4], reason);
+    if (tries == 0) {
+      EXPECT_FALSE(ok);
+      EXPECT_EQ(reason, "fan_overlap");
+      continue;
+    }
+    ASSERT_TRUE(ok) << reason;
+    EXPECT_EQ(at.face_chart[0], at.face_chart[4]);
+    // s1 and s0 welded (one wedge each), v not: A's v and B's v are two wedges 80 degrees apart about s1.
+    EXPECT_EQ(at.face_wedge[0][1], at.face_wedge[4][2]);  // s1
+    EXPECT_EQ(at.face_wedge[1][1], at.face_wedge[7][2]);  // s0
+    EXPECT_NE(at.face_wedge[0][0], at.face_wedge[4][0]);  // v
+    EXPECT_NEAR(fan_angle(at, at.face_wedge[0][1]) * 180 / 3.141592653589793, 280, 0.5);
+    // Nothing had to bend: B's seam wedges fit A's exactly, so no face changed shape.
+    EXPECT_NEAR(engine.global_distortion(), 0.0, 1e-12);
+    EXPECT_EQ(atlas_distortion(run.mesh, at).flipped, 0u);
+    EXPECT_EQ(engine.main_counters().partial_weld_retries, 1u);
+    EXPECT_EQ(engine.main_counters().partial_welds_accepted, 1u);
+  }
+}
+
 /// The stage: mergers.arap with close_cuts closes the slit (and reports it) and keeps the ring's cut;
 /// without it both stay (the behaviour before close_cuts existed).
 TEST(MergeEngineCuts, TheStageClosesCutsOnlyWhenAsked) {
