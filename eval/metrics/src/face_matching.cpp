@@ -4,6 +4,7 @@
 #include "texdefrag/eval/metrics.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -46,34 +47,65 @@ struct CellHash {
   }
 };
 
-}  // namespace
-
-FaceMatch match_faces(const TexturedMesh& in, const TexturedMesh& out, const MatchOptions& options) {
-  const Topology topo = build_topology(in);
-  const size_t nv_in = topo.num_vertices();
-  const double tol = options.position_tolerance;
-
-  // Input positions (welded ids) by exact key and, for the tolerance search, by grid cell.
+// Input positions (welded vertex ids) by exact key and, for the tolerance search, by grid cell.
+struct InputIndex {
   std::unordered_map<Key3, int, Key3Hash> exact;
-  exact.reserve(nv_in);
-  for (size_t v = 0; v < nv_in; ++v)
-    exact.emplace(pos_key(in.positions[static_cast<size_t>(topo.position_of_vertex[v])]), static_cast<int>(v));
-  std::unordered_map<CellKey, std::vector<int>, CellHash> grid;
-  const auto cell_of = [&](const Vec3& p) {
-    // note: clamped so that absurd coordinate/tolerance ratios cannot overflow the conversion.
-    const auto c = [&](double x) { return static_cast<long long>(std::clamp(std::floor(x / tol), -4e18, 4e18)); };
-    return CellKey{c(p.x()), c(p.y()), c(p.z())};
-  };
-  if (tol > 0)
-    for (size_t v = 0; v < nv_in; ++v)
-      grid[cell_of(in.positions[static_cast<size_t>(topo.position_of_vertex[v])])].push_back(static_cast<int>(v));
+  std::unordered_map<CellKey, std::vector<int>, CellHash> grid;  // empty unless tol > 0
+  double tol = 0;
+};
 
-  FaceMatch m;
-  // Output positions -> input vertex ids; unmatched positions get fresh ids >= nv_in (one per
-  // distinct output position).
+const Vec3& vertex_position(const TexturedMesh& in, const Topology& topo, size_t v) {
+  return in.positions[static_cast<size_t>(topo.position_of_vertex[v])];
+}
+
+// Grid cell of p for cells of edge tol (> 0).
+CellKey cell_of(const Vec3& p, double tol) {
+  // note: clamped so that absurd coordinate/tolerance ratios cannot overflow the conversion.
+  const auto c = [&](double x) { return static_cast<long long>(std::clamp(std::floor(x / tol), -4e18, 4e18)); };
+  return CellKey{c(p.x()), c(p.y()), c(p.z())};
+}
+
+// Indexes every welded input vertex of topo; the grid is built only when tol > 0.
+InputIndex index_input(const TexturedMesh& in, const Topology& topo, double tol) {
+  InputIndex index;
+  index.tol = tol;
+  const size_t nv_in = topo.num_vertices();
+  index.exact.reserve(nv_in);
+  for (size_t v = 0; v < nv_in; ++v) index.exact.emplace(pos_key(vertex_position(in, topo, v)), static_cast<int>(v));
+  if (tol > 0)
+    for (size_t v = 0; v < nv_in; ++v) index.grid[cell_of(vertex_position(in, topo, v), tol)].push_back(static_cast<int>(v));
+  return index;
+}
+
+// Nearest input vertex within index.tol (> 0) of p, ties to the last one found; -1 if none.
+int nearest_input_vertex(const InputIndex& index, const TexturedMesh& in, const Topology& topo, const Vec3& p) {
+  const CellKey c = cell_of(p, index.tol);
+  double best = index.tol;
+  int id = -1;
+  for (long long dz = -1; dz <= 1; ++dz)
+    for (long long dy = -1; dy <= 1; ++dy)
+      for (long long dx = -1; dx <= 1; ++dx) {
+        auto g = index.grid.find(CellKey{c.x + dx, c.y + dy, c.z + dz});
+        if (g == index.grid.end()) continue;
+        for (int v : g->second) {
+          const double d = (vertex_position(in, topo, static_cast<size_t>(v)) - p).norm();
+          if (d <= best) {
+            best = d;
+            id = v;
+          }
+        }
+      }
+  return id;
+}
+
+// Input vertex id of each output position used by a face (-1 for unused positions): exact key,
+// else nearest within the tolerance, else a fresh id >= nv_in (one per distinct output position).
+// Counts m.exact_positions, snapped_positions and moved_positions.
+std::vector<int> map_output_positions(const InputIndex& index, const TexturedMesh& in, const Topology& topo,
+                                      const TexturedMesh& out, FaceMatch& m) {
   std::unordered_map<Key3, int, Key3Hash> out_ids;
   std::vector<int> id_of_out_position(out.positions.size(), -1);
-  int next_fresh = static_cast<int>(nv_in);
+  int next_fresh = static_cast<int>(topo.num_vertices());
   for (const Face& f : out.faces)
     for (int pi : f.v) {
       int& slot = id_of_out_position[static_cast<size_t>(pi)];
@@ -86,26 +118,12 @@ FaceMatch match_faces(const TexturedMesh& in, const TexturedMesh& out, const Mat
         continue;
       }
       int id = -1;
-      auto it = exact.find(key);
-      if (it != exact.end()) {
+      auto it = index.exact.find(key);
+      if (it != index.exact.end()) {
         id = it->second;
         ++m.exact_positions;
-      } else if (tol > 0) {
-        const CellKey c = cell_of(p);
-        double best = tol;
-        for (long long dz = -1; dz <= 1; ++dz)
-          for (long long dy = -1; dy <= 1; ++dy)
-            for (long long dx = -1; dx <= 1; ++dx) {
-              auto g = grid.find(CellKey{c.x + dx, c.y + dy, c.z + dz});
-              if (g == grid.end()) continue;
-              for (int v : g->second) {
-                const double d = (in.positions[static_cast<size_t>(topo.position_of_vertex[static_cast<size_t>(v)])] - p).norm();
-                if (d <= best) {
-                  best = d;
-                  id = v;
-                }
-              }
-            }
+      } else if (index.tol > 0) {
+        id = nearest_input_vertex(index, in, topo, p);
         if (id >= 0) ++m.snapped_positions;
       }
       if (id < 0) {
@@ -115,38 +133,58 @@ FaceMatch match_faces(const TexturedMesh& in, const TexturedMesh& out, const Mat
       out_ids.emplace(key, id);
       slot = id;
     }
+  return id_of_out_position;
+}
 
-  // Multiset matching on sorted vertex-id triples.
-  auto keys_of = [](size_t n, auto&& ids) {
-    std::vector<std::array<int, 3>> k(n);
-    for (size_t f = 0; f < n; ++f) {
-      k[f] = ids(f);
-      std::sort(k[f].begin(), k[f].end());
-    }
-    return k;
-  };
-  const auto kin = keys_of(in.faces.size(), [&](size_t f) { return topo.face_vertex[f]; });
-  const auto kout = keys_of(out.faces.size(), [&](size_t f) {
-    const auto& v = out.faces[f].v;
-    return std::array<int, 3>{id_of_out_position[static_cast<size_t>(v[0])], id_of_out_position[static_cast<size_t>(v[1])],
-                              id_of_out_position[static_cast<size_t>(v[2])]};
+using Triple = std::array<int, 3>;
+
+// Each face's vertex-id triple (ids(f) for f in [0, n)), sorted so that orientation does not matter.
+template <class Ids>
+std::vector<Triple> sorted_triples(size_t n, Ids&& ids) {
+  std::vector<Triple> k(n);
+  for (size_t f = 0; f < n; ++f) {
+    k[f] = ids(f);
+    std::sort(k[f].begin(), k[f].end());
+  }
+  return k;
+}
+
+// Face indices [0, k.size()) ordered by triple, then by index.
+std::vector<int> order_by_triple(const std::vector<Triple>& k) {
+  std::vector<int> order(k.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&k](int a, int b) {
+    const auto& ka = k[static_cast<size_t>(a)];
+    const auto& kb = k[static_cast<size_t>(b)];
+    return ka != kb ? ka < kb : a < b;
   });
-  std::vector<int> oin(in.faces.size()), oout(out.faces.size());
-  std::iota(oin.begin(), oin.end(), 0);
-  std::iota(oout.begin(), oout.end(), 0);
-  auto by_key = [](const std::vector<std::array<int, 3>>& k) {
-    return [&k](int a, int b) {
-      const auto& ka = k[static_cast<size_t>(a)];
-      const auto& kb = k[static_cast<size_t>(b)];
-      return ka != kb ? ka < kb : a < b;
-    };
-  };
-  std::sort(oin.begin(), oin.end(), by_key(kin));
-  std::sort(oout.begin(), oout.end(), by_key(kout));
+  return order;
+}
 
-  m.output_of_input.assign(in.faces.size(), -1);
-  m.input_of_output.assign(out.faces.size(), -1);
-  m.output_corner.assign(in.faces.size(), {-1, -1, -1});
+// Sets m.output_corner[fi]: for each corner of input face fi, the corner of output face fo at the
+// same position (each output corner used once: degenerate faces repeat a position).
+void match_corners(const Topology& topo, const TexturedMesh& out, const std::vector<int>& id_of_out_position, int fi,
+                   int fo, FaceMatch& m) {
+  bool used[3] = {false, false, false};
+  for (int k = 0; k < 3; ++k) {
+    const int vid = topo.face_vertex[static_cast<size_t>(fi)][static_cast<size_t>(k)];
+    for (int l = 0; l < 3; ++l)
+      if (!used[l] && id_of_out_position[static_cast<size_t>(out.faces[static_cast<size_t>(fo)].v[static_cast<size_t>(l)])] == vid) {
+        used[l] = true;
+        m.output_corner[static_cast<size_t>(fi)][static_cast<size_t>(k)] = l;
+        break;
+      }
+  }
+}
+
+// Multiset matching of the input's and the output's triples (kin, kout): equal triples pair up in
+// index order. Fills m's face and corner maps and m.matched, added, lost.
+void match_triples(const Topology& topo, const TexturedMesh& out, const std::vector<int>& id_of_out_position,
+                   const std::vector<Triple>& kin, const std::vector<Triple>& kout, FaceMatch& m) {
+  const std::vector<int> oin = order_by_triple(kin), oout = order_by_triple(kout);
+  m.output_of_input.assign(kin.size(), -1);
+  m.input_of_output.assign(kout.size(), -1);
+  m.output_corner.assign(kin.size(), {-1, -1, -1});
   for (size_t i = 0, j = 0; i < oin.size() && j < oout.size();) {
     const auto& a = kin[static_cast<size_t>(oin[i])];
     const auto& b = kout[static_cast<size_t>(oout[j])];
@@ -159,23 +197,16 @@ FaceMatch match_faces(const TexturedMesh& in, const TexturedMesh& out, const Mat
       m.output_of_input[static_cast<size_t>(fi)] = fo;
       m.input_of_output[static_cast<size_t>(fo)] = fi;
       ++m.matched;
-      // Corner correspondence by position (each output corner used once: degenerate faces repeat).
-      bool used[3] = {false, false, false};
-      for (int k = 0; k < 3; ++k) {
-        const int vid = topo.face_vertex[static_cast<size_t>(fi)][static_cast<size_t>(k)];
-        for (int l = 0; l < 3; ++l)
-          if (!used[l] && id_of_out_position[static_cast<size_t>(out.faces[static_cast<size_t>(fo)].v[static_cast<size_t>(l)])] == vid) {
-            used[l] = true;
-            m.output_corner[static_cast<size_t>(fi)][static_cast<size_t>(k)] = l;
-            break;
-          }
-      }
+      match_corners(topo, out, id_of_out_position, fi, fo, m);
     }
   }
-  m.added = out.faces.size() - m.matched;
-  m.lost = in.faces.size() - m.matched;
+  m.added = kout.size() - m.matched;
+  m.lost = kin.size() - m.matched;
+}
 
-  // Why were faces lost? Degenerate, zero 3D area, or on a non-manifold edge of the input.
+// Why were faces lost? Counts each unmatched input face as degenerate, zero 3D area, on a
+// non-manifold edge of the input, or other (in that order of precedence).
+void count_lost_reasons(const TexturedMesh& in, const Topology& topo, FaceMatch& m) {
   for (size_t f = 0; f < in.faces.size(); ++f) {
     if (m.output_of_input[f] >= 0) continue;
     if (topo.face_degenerate[f]) {
@@ -191,6 +222,23 @@ FaceMatch match_faces(const TexturedMesh& in, const TexturedMesh& out, const Mat
         ++m.lost_other;
     }
   }
+}
+
+}  // namespace
+
+FaceMatch match_faces(const TexturedMesh& in, const TexturedMesh& out, const MatchOptions& options) {
+  const Topology topo = build_topology(in);
+  const InputIndex index = index_input(in, topo, options.position_tolerance);
+  FaceMatch m;
+  const std::vector<int> id_of_out_position = map_output_positions(index, in, topo, out, m);
+  const auto kin = sorted_triples(in.faces.size(), [&](size_t f) { return topo.face_vertex[f]; });
+  const auto kout = sorted_triples(out.faces.size(), [&](size_t f) {
+    const auto& v = out.faces[f].v;
+    return Triple{id_of_out_position[static_cast<size_t>(v[0])], id_of_out_position[static_cast<size_t>(v[1])],
+                  id_of_out_position[static_cast<size_t>(v[2])]};
+  });
+  match_triples(topo, out, id_of_out_position, kin, kout, m);
+  count_lost_reasons(in, topo, m);
   return m;
 }
 
