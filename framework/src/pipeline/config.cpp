@@ -91,64 +91,75 @@ const StageInfo& writer_stage_info() {
   return info;
 }
 
-PipelineConfig parse_config(const json& config, const std::string& origin, const std::vector<std::string>& overrides) {
-  std::vector<std::string> errors;
-  if (!config.is_object()) throw ConfigError({origin + ": the configuration must be a JSON object"});
-  json cfg = config;
+namespace {
 
-  Registry& reg = Registry::instance();
-  reg.load_plugins();
+/// True for an override "SECTION.type=X" (the first '.' is the one before "type=").
+bool is_type_override(const std::string& o) {
+  return o.find(".type=") != std::string::npos && o.find('.') == o.find(".type=");
+}
 
-  // Overrides: "section.option=value" or "kind.stage.option=value" (stage must be the section's type).
-  // "SECTION.type=X" comes first and resets the section to X with its defaults: the options of the
-  // stage it replaces mean nothing to X. The other overrides then apply in order.
+/// The overrides with every "SECTION.type=X" first, each group in its given order.
+std::vector<std::string> order_overrides(const std::vector<std::string>& overrides) {
   std::vector<std::string> ordered;
   for (const std::string& o : overrides)
-    if (o.find(".type=") != std::string::npos && o.find('.') == o.find(".type=")) ordered.push_back(o);
+    if (is_type_override(o)) ordered.push_back(o);
   for (const std::string& o : overrides)
-    if (!(o.find(".type=") != std::string::npos && o.find('.') == o.find(".type="))) ordered.push_back(o);
-  for (const std::string& o : ordered) {
-    const size_t eq = o.find('=');
-    const size_t dot = o.rfind('.', eq);
-    if (eq == std::string::npos || dot == std::string::npos || dot == 0 || dot + 1 >= eq) {
-      errors.push_back("--set " + o + ": expected STAGE.OPTION=VALUE (e.g. packer.gutter=4)");
-      continue;
-    }
-    std::string target = o.substr(0, dot);
-    const std::string key = o.substr(dot + 1, eq - dot - 1);
-    const json value = parse_value(o.substr(eq + 1));
-    std::string section;
-    for (const Section& s : kSections)
-      if (target == s.key) section = s.key;
-    if (target == "texture" || target == "output") section = target;
-    if (section.empty()) {
-      for (const Section& s : kSections) {
-        const std::string type = cfg.contains(s.key) && cfg[s.key].is_object() && cfg[s.key].contains("type") &&
-                                         cfg[s.key]["type"].is_string()
-                                     ? cfg[s.key]["type"].get<std::string>()
-                                     : s.default_type;
-        if (type == target) section = s.key;
-      }
-      if (target == texture_stage_info().name) section = "texture";
-      if (target == writer_stage_info().name) section = "output";
-    }
-    if (section.empty()) {
-      errors.push_back("--set " + o + ": '" + target + "' is neither a section (detector, merger, packer, texture, output) "
-                       "nor the type of one in " + origin);
-      continue;
-    }
-    if (!cfg.contains(section)) cfg[section] = json::object();
-    if (!cfg[section].is_object()) {
-      errors.push_back("--set " + o + ": section '" + section + "' of " + origin + " is not an object");
-      continue;
-    }
-    if (key == "type" && section != "texture" && section != "output") {
-      cfg[section] = json{{"type", value}};
-      continue;
-    }
-    cfg[section][key] = value;
-  }
+    if (!is_type_override(o)) ordered.push_back(o);
+  return ordered;
+}
 
+/// The section an override's target names: a section key, or the type of a section in cfg (the
+/// default type where cfg names none); empty if neither.
+std::string section_of_target(const json& cfg, const std::string& target) {
+  std::string section;
+  for (const Section& s : kSections)
+    if (target == s.key) section = s.key;
+  if (target == "texture" || target == "output") section = target;
+  if (!section.empty()) return section;
+  for (const Section& s : kSections) {
+    const std::string type = cfg.contains(s.key) && cfg[s.key].is_object() && cfg[s.key].contains("type") &&
+                                     cfg[s.key]["type"].is_string()
+                                 ? cfg[s.key]["type"].get<std::string>()
+                                 : s.default_type;
+    if (type == target) section = s.key;
+  }
+  if (target == texture_stage_info().name) section = "texture";
+  if (target == writer_stage_info().name) section = "output";
+  return section;
+}
+
+/// Applies one override o ("section.option=value" or "kind.stage.option=value") to cfg; a
+/// "SECTION.type=X" of a stage section resets it to {"type": X}. Problems go to errors.
+void apply_override(json& cfg, const std::string& o, const std::string& origin, std::vector<std::string>& errors) {
+  const size_t eq = o.find('=');
+  const size_t dot = o.rfind('.', eq);
+  if (eq == std::string::npos || dot == std::string::npos || dot == 0 || dot + 1 >= eq) {
+    errors.push_back("--set " + o + ": expected STAGE.OPTION=VALUE (e.g. packer.gutter=4)");
+    return;
+  }
+  const std::string target = o.substr(0, dot);
+  const std::string key = o.substr(dot + 1, eq - dot - 1);
+  const json value = parse_value(o.substr(eq + 1));
+  const std::string section = section_of_target(cfg, target);
+  if (section.empty()) {
+    errors.push_back("--set " + o + ": '" + target + "' is neither a section (detector, merger, packer, texture, output) "
+                     "nor the type of one in " + origin);
+    return;
+  }
+  if (!cfg.contains(section)) cfg[section] = json::object();
+  if (!cfg[section].is_object()) {
+    errors.push_back("--set " + o + ": section '" + section + "' of " + origin + " is not an object");
+    return;
+  }
+  if (key == "type" && section != "texture" && section != "output") {
+    cfg[section] = json{{"type", value}};
+    return;
+  }
+  cfg[section][key] = value;
+}
+
+/// Reports unknown top-level keys of cfg (with did-you-mean) and a non-string description.
+void check_top_level_keys(const json& cfg, const std::string& origin, std::vector<std::string>& errors) {
   std::vector<std::string> known = {"description", "texture", "output"};
   for (const Section& s : kSections) known.push_back(s.key);
   for (auto it = cfg.begin(); it != cfg.end(); ++it) {
@@ -160,48 +171,60 @@ PipelineConfig parse_config(const json& config, const std::string& origin, const
   }
   if (cfg.contains("description") && !cfg["description"].is_string())
     errors.push_back(origin + ": 'description' must be a string");
+}
 
-  PipelineConfig pc;
-  pc.origin = origin;
-  StageConfig* targets[] = {&pc.detector, &pc.merger, &pc.packer};
-  for (size_t i = 0; i < 3; ++i) {
-    const Section& s = kSections[i];
-    StageConfig& sc = *targets[i];
-    sc.section = s.key;
-    json node = cfg.contains(s.key) ? cfg[s.key] : json::object();
-    if (!node.is_object()) {
-      errors.push_back(origin + ": '" + s.key + "' must be an object like {\"type\": \"" + s.default_type + "\"}");
-      continue;
-    }
-    if (node.contains("type") && !node["type"].is_string()) {
-      errors.push_back(std::string(s.key) + ".type: must be a string naming a stage");
-      continue;
-    }
-    sc.type = node.value("type", std::string(s.default_type));
-    const StageInfo* info = reg.find(sc.type);
-    if (!info) {
-      std::vector<std::string> same_kind;
-      for (const StageInfo* si : reg.list())
-        if (si->kind == s.kind) same_kind.push_back(si->name);
-      std::string msg = std::string(s.key) + ".type: unknown stage '" + sc.type + "'";
-      const std::string near = nearest(sc.type, same_kind);
-      if (!near.empty()) msg += " (did you mean '" + near + "'?)";
-      errors.push_back(msg);
-      continue;
-    }
-    if (info->kind != s.kind) {
-      errors.push_back(std::string(s.key) + ".type: '" + sc.type + "' is a " + to_string(info->kind) +
-                       " stage, not one of " + to_string(s.kind));
-      continue;
-    }
-    sc.options = make_options(*info, node, std::string(s.key) + " (" + sc.type + ")", errors);
-    json eff = sc.options.values();
-    eff["type"] = sc.type;
-    pc.effective[s.key] = eff;
-    for (const OptionSpec& o : info->options)
-      if (o.type == OptionType::InputPath && !sc.options.get_string(o.key).empty())
-        pc.input_files.push_back(sc.options.get_string(o.key));
+/// The registered stage of kind s.kind named type, or nullptr after adding the error (unknown
+/// stage with did-you-mean among that kind, or a stage of another kind).
+const StageInfo* find_section_stage(Registry& reg, const Section& s, const std::string& type,
+                                    std::vector<std::string>& errors) {
+  const StageInfo* info = reg.find(type);
+  if (!info) {
+    std::vector<std::string> same_kind;
+    for (const StageInfo* si : reg.list())
+      if (si->kind == s.kind) same_kind.push_back(si->name);
+    std::string msg = std::string(s.key) + ".type: unknown stage '" + type + "'";
+    const std::string near = nearest(type, same_kind);
+    if (!near.empty()) msg += " (did you mean '" + near + "'?)";
+    errors.push_back(msg);
+    return nullptr;
   }
+  if (info->kind != s.kind) {
+    errors.push_back(std::string(s.key) + ".type: '" + type + "' is a " + to_string(info->kind) +
+                     " stage, not one of " + to_string(s.kind));
+    return nullptr;
+  }
+  return info;
+}
+
+/// Parses stage section s of cfg into sc (section, type, options) and records its effective
+/// options and input files in pc; problems go to errors (sc then stays partly filled).
+void parse_stage_section(Registry& reg, const Section& s, const json& cfg, const std::string& origin, StageConfig& sc,
+                         PipelineConfig& pc, std::vector<std::string>& errors) {
+  sc.section = s.key;
+  const json node = cfg.contains(s.key) ? cfg[s.key] : json::object();
+  if (!node.is_object()) {
+    errors.push_back(origin + ": '" + s.key + "' must be an object like {\"type\": \"" + s.default_type + "\"}");
+    return;
+  }
+  if (node.contains("type") && !node["type"].is_string()) {
+    errors.push_back(std::string(s.key) + ".type: must be a string naming a stage");
+    return;
+  }
+  sc.type = node.value("type", std::string(s.default_type));
+  const StageInfo* info = find_section_stage(reg, s, sc.type, errors);
+  if (!info) return;
+  sc.options = make_options(*info, node, std::string(s.key) + " (" + sc.type + ")", errors);
+  json eff = sc.options.values();
+  eff["type"] = sc.type;
+  pc.effective[s.key] = eff;
+  for (const OptionSpec& o : info->options)
+    if (o.type == OptionType::InputPath && !sc.options.get_string(o.key).empty())
+      pc.input_files.push_back(sc.options.get_string(o.key));
+}
+
+/// Parses the framework's sections (texture, output) of cfg into pc, checks output.name and
+/// records their effective options and the description in pc.effective.
+void parse_framework_sections(const json& cfg, PipelineConfig& pc, std::vector<std::string>& errors) {
   pc.texture = make_options(texture_stage_info(), cfg.value("texture", json::object()), "texture", errors);
   pc.output = make_options(writer_stage_info(), cfg.value("output", json::object()), "output", errors);
   if (pc.output.values().contains("name")) {
@@ -214,6 +237,29 @@ PipelineConfig parse_config(const json& config, const std::string& origin, const
   pc.effective["texture"] = pc.texture.values();
   pc.effective["output"] = pc.output.values();
   if (cfg.contains("description")) pc.effective["description"] = cfg["description"];
+}
+
+}  // namespace
+
+PipelineConfig parse_config(const json& config, const std::string& origin, const std::vector<std::string>& overrides) {
+  std::vector<std::string> errors;
+  if (!config.is_object()) throw ConfigError({origin + ": the configuration must be a JSON object"});
+  json cfg = config;
+
+  Registry& reg = Registry::instance();
+  reg.load_plugins();
+
+  // Overrides: "section.option=value" or "kind.stage.option=value" (stage must be the section's type).
+  // "SECTION.type=X" comes first and resets the section to X with its defaults: the options of the
+  // stage it replaces mean nothing to X. The other overrides then apply in order.
+  for (const std::string& o : order_overrides(overrides)) apply_override(cfg, o, origin, errors);
+  check_top_level_keys(cfg, origin, errors);
+
+  PipelineConfig pc;
+  pc.origin = origin;
+  StageConfig* targets[] = {&pc.detector, &pc.merger, &pc.packer};
+  for (size_t i = 0; i < 3; ++i) parse_stage_section(reg, kSections[i], cfg, origin, *targets[i], pc, errors);
+  parse_framework_sections(cfg, pc, errors);
 
   // Let stages check cross-option constraints now, before any mesh is read.
   if (errors.empty()) {
