@@ -42,15 +42,16 @@ const EdgeIncidence* Topology::opposite(int f, int k) const {
   return &inc[0];
 }
 
-Topology build_topology(const TexturedMesh& mesh) {
-  Topology t;
+namespace {
+
+// Welds the positions faces reference, by exact coordinates, in order of first reference (stable
+// ids): fills t.vertex_of_position, position_of_vertex, face_vertex, report.welded_vertices.
+void weld_vertices(const TexturedMesh& mesh, Topology& t) {
   const size_t nf = mesh.faces.size();
   t.vertex_of_position.assign(mesh.positions.size(), -1);
   std::unordered_map<PosKey, int, PosHash> weld;
   weld.reserve(mesh.positions.size());
-  // Weld only positions that faces reference, in order of first reference (stable ids).
   t.face_vertex.resize(nf);
-  t.face_degenerate.assign(nf, 0);
   for (size_t f = 0; f < nf; ++f) {
     for (int k = 0; k < 3; ++k) {
       const int p = mesh.faces[f].v[static_cast<size_t>(k)];
@@ -66,9 +67,16 @@ Topology build_topology(const TexturedMesh& mesh) {
     }
   }
   t.report.welded_vertices = t.position_of_vertex.size();
+}
 
-  // Edge table: sort (a, b, face, local) records.
-  struct Rec { int a, b, face, local; };
+// One face side: welded vertex ids a <= b, the face and its local edge index.
+struct Rec { int a, b, face, local; };
+
+// Flags degenerate faces (t.face_degenerate, counts degenerate and zero-area faces) and returns
+// the three side records of every face, sorted by (a, b, face, local).
+std::vector<Rec> classify_faces_and_sides(const TexturedMesh& mesh, Topology& t) {
+  const size_t nf = mesh.faces.size();
+  t.face_degenerate.assign(nf, 0);
   std::vector<Rec> recs;
   recs.reserve(nf * 3);
   for (size_t f = 0; f < nf; ++f) {
@@ -91,6 +99,12 @@ Topology build_topology(const TexturedMesh& mesh) {
     if (x.face != y.face) return x.face < y.face;
     return x.local < y.local;
   });
+  return recs;
+}
+
+// Builds t.edges, edge_faces and face_edge from the sorted side records (one edge per run of
+// equal (a, b)); counts boundary and non-manifold edges (not those of a degenerate side) and edges.
+void build_edge_table(const std::vector<Rec>& recs, size_t nf, Topology& t) {
   t.face_edge.assign(nf, {-1, -1, -1});
   t.edge_faces.reserve(recs.size());
   for (size_t i = 0; i < recs.size();) {
@@ -114,65 +128,92 @@ Topology build_topology(const TexturedMesh& mesh) {
     i = j;
   }
   t.report.edges = t.edges.size();
+}
 
-  // Duplicate faces: same welded vertex set.
-  {
-    std::vector<std::array<int, 3>> keys(nf);
-    std::vector<int> order(nf);
-    for (size_t f = 0; f < nf; ++f) {
-      keys[f] = t.face_vertex[f];
-      std::sort(keys[f].begin(), keys[f].end());
-    }
-    std::iota(order.begin(), order.end(), 0);
-    std::sort(order.begin(), order.end(), [&](int x, int y) { return keys[static_cast<size_t>(x)] < keys[static_cast<size_t>(y)]; });
-    for (size_t i = 1; i < order.size(); ++i)
-      if (keys[static_cast<size_t>(order[i])] == keys[static_cast<size_t>(order[i - 1])] &&
-          !t.face_degenerate[static_cast<size_t>(order[i])])
-        ++t.report.duplicate_faces;
+// Counts in t.report.duplicate_faces the non-degenerate faces whose welded vertex set equals that
+// of the face before them in sorted order.
+void count_duplicate_faces(Topology& t) {
+  const size_t nf = t.face_vertex.size();
+  std::vector<std::array<int, 3>> keys(nf);
+  std::vector<int> order(nf);
+  for (size_t f = 0; f < nf; ++f) {
+    keys[f] = t.face_vertex[f];
+    std::sort(keys[f].begin(), keys[f].end());
   }
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int x, int y) { return keys[static_cast<size_t>(x)] < keys[static_cast<size_t>(y)]; });
+  for (size_t i = 1; i < order.size(); ++i)
+    if (keys[static_cast<size_t>(order[i])] == keys[static_cast<size_t>(order[i - 1])] &&
+        !t.face_degenerate[static_cast<size_t>(order[i])])
+      ++t.report.duplicate_faces;
+}
 
-  // Non-manifold vertices: the faces around a vertex must form one sheet through manifold edges.
-  {
-    const size_t nv = t.num_vertices();
-    std::vector<int> count(nv + 1, 0);
-    for (size_t f = 0; f < nf; ++f)
-      if (!t.face_degenerate[f])
-        for (int v : t.face_vertex[f]) ++count[static_cast<size_t>(v) + 1];
-    std::partial_sum(count.begin(), count.end(), count.begin());
-    std::vector<int> vf(static_cast<size_t>(count[nv]));
-    std::vector<int> fill(count.begin(), count.end() - 1);
-    for (size_t f = 0; f < nf; ++f)
-      if (!t.face_degenerate[f])
-        for (int v : t.face_vertex[f]) vf[static_cast<size_t>(fill[static_cast<size_t>(v)]++)] = static_cast<int>(f);
-    std::vector<int> mark(nf, -1);
-    std::vector<int> stack;
-    for (size_t v = 0; v < nv; ++v) {
-      const int b = count[v], e = count[v + 1];
-      if (e - b <= 1) continue;
-      // Flood from the first face across manifold edges that contain v.
-      stack.assign(1, vf[static_cast<size_t>(b)]);
-      mark[static_cast<size_t>(vf[static_cast<size_t>(b)])] = static_cast<int>(v);
-      int reached = 1;
-      bool non_manifold_edge = false;
-      while (!stack.empty()) {
-        const int f = stack.back();
-        stack.pop_back();
-        for (int k = 0; k < 3; ++k) {
-          const Edge& ed = t.edges[static_cast<size_t>(t.face_edge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
-          if (ed.a != static_cast<int>(v) && ed.b != static_cast<int>(v)) continue;
-          if (ed.num_faces > 2) non_manifold_edge = true;
-          if (ed.num_faces != 2) continue;
-          const int g = t.opposite_face(f, k);
-          if (g >= 0 && mark[static_cast<size_t>(g)] != static_cast<int>(v) && !t.face_degenerate[static_cast<size_t>(g)]) {
-            mark[static_cast<size_t>(g)] = static_cast<int>(v);
-            ++reached;
-            stack.push_back(g);
-          }
-        }
+// Non-degenerate faces around each vertex, compressed: faces of v are vf[count[v] .. count[v+1]),
+// in face order.
+void faces_around_vertices(const Topology& t, std::vector<int>& count, std::vector<int>& vf) {
+  const size_t nv = t.num_vertices(), nf = t.face_vertex.size();
+  count.assign(nv + 1, 0);
+  for (size_t f = 0; f < nf; ++f)
+    if (!t.face_degenerate[f])
+      for (int v : t.face_vertex[f]) ++count[static_cast<size_t>(v) + 1];
+  std::partial_sum(count.begin(), count.end(), count.begin());
+  vf.assign(static_cast<size_t>(count[nv]), 0);
+  std::vector<int> fill(count.begin(), count.end() - 1);
+  for (size_t f = 0; f < nf; ++f)
+    if (!t.face_degenerate[f])
+      for (int v : t.face_vertex[f]) vf[static_cast<size_t>(fill[static_cast<size_t>(v)]++)] = static_cast<int>(f);
+}
+
+// True when the faces around v (faces, more than one) do not form one sheet: a flood from the
+// first face across manifold edges containing v misses some, or meets a non-manifold edge.
+// mark (one entry per face) is scratch: faces reached are set to v.
+bool vertex_is_non_manifold(const Topology& t, int v, const int* faces, int num_faces, std::vector<int>& mark,
+                            std::vector<int>& stack) {
+  stack.assign(1, faces[0]);
+  mark[static_cast<size_t>(faces[0])] = v;
+  int reached = 1;
+  bool non_manifold_edge = false;
+  while (!stack.empty()) {
+    const int f = stack.back();
+    stack.pop_back();
+    for (int k = 0; k < 3; ++k) {
+      const Edge& ed = t.edges[static_cast<size_t>(t.face_edge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
+      if (ed.a != v && ed.b != v) continue;
+      if (ed.num_faces > 2) non_manifold_edge = true;
+      if (ed.num_faces != 2) continue;
+      const int g = t.opposite_face(f, k);
+      if (g >= 0 && mark[static_cast<size_t>(g)] != v && !t.face_degenerate[static_cast<size_t>(g)]) {
+        mark[static_cast<size_t>(g)] = v;
+        ++reached;
+        stack.push_back(g);
       }
-      if (reached != e - b || non_manifold_edge) ++t.report.non_manifold_vertices;
     }
   }
+  return reached != num_faces || non_manifold_edge;
+}
+
+// Counts in t.report.non_manifold_vertices the vertices whose faces do not form one sheet.
+void count_non_manifold_vertices(Topology& t) {
+  std::vector<int> count, vf;
+  faces_around_vertices(t, count, vf);
+  std::vector<int> mark(t.face_vertex.size(), -1);
+  std::vector<int> stack;
+  for (size_t v = 0; v < t.num_vertices(); ++v) {
+    const int b = count[v], e = count[v + 1];
+    if (e - b <= 1) continue;
+    if (vertex_is_non_manifold(t, static_cast<int>(v), vf.data() + b, e - b, mark, stack))
+      ++t.report.non_manifold_vertices;
+  }
+}
+
+}  // namespace
+
+Topology build_topology(const TexturedMesh& mesh) {
+  Topology t;
+  weld_vertices(mesh, t);
+  build_edge_table(classify_faces_and_sides(mesh, t), mesh.faces.size(), t);
+  count_duplicate_faces(t);
+  count_non_manifold_vertices(t);
   return t;
 }
 
