@@ -190,10 +190,11 @@ std::vector<ChartStats> chart_stats(const TexturedMesh& mesh, const Topology& to
   return st;
 }
 
-ChartSet build_charts(const TexturedMesh& mesh, const Topology& topo) {
-  const size_t nf = mesh.faces.size();
-  UnionFind faces(nf), corners(nf * 3);
-  std::vector<uint8_t> pair_continuous;
+namespace {
+
+// Unites, across every UV-continuous pair of faces on a non-degenerate edge, the two faces (in
+// faces) and their matching corners (in corners, indexed face * 3 + corner).
+void unite_continuous(const TexturedMesh& mesh, const Topology& topo, UnionFind& faces, UnionFind& corners) {
   for (const Edge& e : topo.edges) {
     if (e.a == e.b) continue;
     for (int i = 0; i < e.num_faces; ++i)
@@ -208,8 +209,12 @@ ChartSet build_charts(const TexturedMesh& mesh, const Topology& topo) {
         corners.unite(x.face * 3 + (x.local + 1) % 3, y.face * 3 + gk1);
       }
   }
-  ChartSet cs;
-  Atlas& at = cs.atlas;
+}
+
+// Fills at (cleared before) from the face and corner classes: one chart per face class and one
+// wedge per corner class, numbered in order of first face; faces without a page get no chart.
+void build_atlas(const TexturedMesh& mesh, const Topology& topo, UnionFind& faces, UnionFind& corners, Atlas& at) {
+  const size_t nf = mesh.faces.size();
   at.face_chart.assign(nf, -1);
   at.face_wedge.assign(nf, {-1, -1, -1});
   std::vector<int> chart_of_root(nf, -1), wedge_of_root(nf * 3, -1);
@@ -233,12 +238,12 @@ ChartSet build_charts(const TexturedMesh& mesh, const Topology& topo) {
       at.face_wedge[f][static_cast<size_t>(k)] = w;
     }
   }
-  cs.stats = chart_stats(mesh, topo, at);
-  for (const ChartStats& s : cs.stats) {
-    if (s.uv_area == 0) ++cs.zero_area_charts;
-    cs.uv_border_length += s.uv_border;
-  }
-  // Seams and chains.
+}
+
+// Collects the seams of cs.atlas (manifold edges between charted faces, UV-discontinuous) into
+// one chain per chart pair, in edge order; adds their 3D lengths and counts to cs.
+void collect_seam_chains(const TexturedMesh& mesh, const Topology& topo, ChartSet& cs) {
+  const Atlas& at = cs.atlas;
   std::map<std::pair<int, int>, int> chain_of;
   for (size_t ei = 0; ei < topo.edges.size(); ++ei) {
     const Edge& e = topo.edges[ei];
@@ -265,7 +270,24 @@ ChartSet build_charts(const TexturedMesh& mesh, const Topology& topo) {
     cs.seam_length_3d += len;
     ++cs.seam_edges;
   }
-  cs.chart_chains.assign(static_cast<size_t>(at.num_charts), {});
+}
+
+}  // namespace
+
+ChartSet build_charts(const TexturedMesh& mesh, const Topology& topo) {
+  const size_t nf = mesh.faces.size();
+  UnionFind faces(nf), corners(nf * 3);
+  unite_continuous(mesh, topo, faces, corners);
+  ChartSet cs;
+  build_atlas(mesh, topo, faces, corners, cs.atlas);
+  cs.stats = chart_stats(mesh, topo, cs.atlas);
+  for (const ChartStats& s : cs.stats) {
+    if (s.uv_area == 0) ++cs.zero_area_charts;
+    cs.uv_border_length += s.uv_border;
+  }
+  collect_seam_chains(mesh, topo, cs);
+  // Each chart's chains (a chain of a chart with itself listed once).
+  cs.chart_chains.assign(static_cast<size_t>(cs.atlas.num_charts), {});
   for (size_t i = 0; i < cs.chains.size(); ++i) {
     cs.chart_chains[static_cast<size_t>(cs.chains[i].chart_a)].push_back(static_cast<int>(i));
     if (cs.chains[i].chart_b != cs.chains[i].chart_a)
