@@ -105,79 +105,90 @@ double atlas_face_area(const Atlas& atlas, int f) {
   return 0.5 * ((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
 }
 
-std::vector<ChartStats> chart_stats(const TexturedMesh& mesh, const Topology& topo, const Atlas& atlas) {
-  const size_t nc = static_cast<size_t>(atlas.num_charts);
-  std::vector<ChartStats> st(nc);
-  std::vector<Eigen::Matrix3d> second(nc, Eigen::Matrix3d::Zero());
-  std::vector<Vec3> first(nc, Vec3::Zero()), ref(nc, Vec3::Zero());
-  std::vector<uint8_t> has_ref(nc, 0);
-  std::vector<Eigen::Matrix3d> pts2(nc, Eigen::Matrix3d::Zero());
-  std::vector<Vec3> pts1(nc, Vec3::Zero());
-  std::vector<int> npts(nc, 0);
-  for (size_t f = 0; f < atlas.face_chart.size(); ++f) {
-    const int c = atlas.face_chart[f];
-    if (c < 0) continue;
-    ChartStats& s = st[static_cast<size_t>(c)];
-    s.page = atlas.chart_page[static_cast<size_t>(c)];
-    ++s.faces;
-    s.uv_area += std::abs(atlas_face_area(atlas, static_cast<int>(f)));
-    if (!has_ref[static_cast<size_t>(c)]) {
-      ref[static_cast<size_t>(c)] = mesh.corner_position(f, 0);
-      has_ref[static_cast<size_t>(c)] = 1;
-    }
-    const Vec3 a = mesh.corner_position(f, 0) - ref[static_cast<size_t>(c)];
-    const Vec3 b = mesh.corner_position(f, 1) - ref[static_cast<size_t>(c)];
-    const Vec3 cc = mesh.corner_position(f, 2) - ref[static_cast<size_t>(c)];
-    const double A = 0.5 * (b - a).cross(cc - a).norm();
-    s.area_3d += A;
-    const Vec3 sum = a + b + cc;
-    first[static_cast<size_t>(c)] += A * sum / 3.0;
-    second[static_cast<size_t>(c)] += A / 12.0 * (a * a.transpose() + b * b.transpose() + cc * cc.transpose() + sum * sum.transpose());
-    for (const Vec3* p : {&a, &b, &cc}) {
-      pts1[static_cast<size_t>(c)] += *p;
-      pts2[static_cast<size_t>(c)] += *p * p->transpose();
-      ++npts[static_cast<size_t>(c)];
-    }
-    // Border edges: local edge k is a border of chart c unless some other face of c continues it.
-    for (int k = 0; k < 3; ++k) {
-      const Edge& e = topo.edges[static_cast<size_t>(topo.face_edge[f][static_cast<size_t>(k)])];
-      bool interior = false;
-      for (int i = 0; i < e.num_faces && !interior; ++i) {
-        const EdgeIncidence& in = topo.edge_faces[static_cast<size_t>(e.first_incidence + i)];
-        if (in.face == static_cast<int>(f) || atlas.face_chart[static_cast<size_t>(in.face)] != c) continue;
-        // Continuous in the atlas: the two corners share wedges at both endpoints.
-        const auto& fw = atlas.face_wedge[f];
-        const auto& gw = atlas.face_wedge[static_cast<size_t>(in.face)];
-        const int w0 = fw[static_cast<size_t>(k)], w1 = fw[static_cast<size_t>((k + 1) % 3)];
-        const int g0 = gw[static_cast<size_t>(in.local)], g1 = gw[static_cast<size_t>((in.local + 1) % 3)];
-        interior = (w0 == g0 && w1 == g1) || (w0 == g1 && w1 == g0);
-      }
-      if (!interior) {
-        const Vec2& p = atlas.wedge_uv[static_cast<size_t>(atlas.face_wedge[f][static_cast<size_t>(k)])];
-        const Vec2& q = atlas.wedge_uv[static_cast<size_t>(atlas.face_wedge[f][static_cast<size_t>((k + 1) % 3)])];
-        s.uv_border += (p - q).norm();
-      }
-    }
+namespace {
+
+// Per-chart sums for the plane fit, relative to the chart's first corner position ref.
+struct ChartMoments {
+  std::vector<Eigen::Matrix3d> second, pts2;  // area-weighted second moments; corner outer products
+  std::vector<Vec3> first, ref, pts1;         // area-weighted first moments; reference; corner sums
+  std::vector<uint8_t> has_ref;
+  std::vector<int> npts;                      // corners summed in pts1/pts2
+  explicit ChartMoments(size_t nc)
+      : second(nc, Eigen::Matrix3d::Zero()), pts2(nc, Eigen::Matrix3d::Zero()), first(nc, Vec3::Zero()),
+        ref(nc, Vec3::Zero()), pts1(nc, Vec3::Zero()), has_ref(nc, 0), npts(nc, 0) {}
+};
+
+// Adds face f of chart c to s (3D area) and to the moments m.
+void add_face_moments(const TexturedMesh& mesh, size_t f, size_t c, ChartStats& s, ChartMoments& m) {
+  if (!m.has_ref[c]) {
+    m.ref[c] = mesh.corner_position(f, 0);
+    m.has_ref[c] = 1;
   }
-  for (size_t c = 0; c < nc; ++c) {
-    ChartStats& s = st[c];
-    Eigen::Matrix3d cov;
-    Vec3 mu;
-    if (s.area_3d > 0) {
-      mu = first[c] / s.area_3d;
-      cov = second[c] / s.area_3d - mu * mu.transpose();
-    } else if (npts[c] > 0) {
-      mu = pts1[c] / npts[c];
-      cov = pts2[c] / npts[c] - mu * mu.transpose();
-    } else {
-      continue;
-    }
-    s.centroid = mu + ref[c];
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-    s.eigenvalues = es.eigenvalues().cwiseMax(0.0);
-    s.normal = es.eigenvectors().col(0);
+  const Vec3 a = mesh.corner_position(f, 0) - m.ref[c];
+  const Vec3 b = mesh.corner_position(f, 1) - m.ref[c];
+  const Vec3 cc = mesh.corner_position(f, 2) - m.ref[c];
+  const double A = 0.5 * (b - a).cross(cc - a).norm();
+  s.area_3d += A;
+  const Vec3 sum = a + b + cc;
+  m.first[c] += A * sum / 3.0;
+  m.second[c] += A / 12.0 * (a * a.transpose() + b * b.transpose() + cc * cc.transpose() + sum * sum.transpose());
+  for (const Vec3* p : {&a, &b, &cc}) {
+    m.pts1[c] += *p;
+    m.pts2[c] += *p * p->transpose();
+    ++m.npts[c];
   }
-  // Orient each plane normal with the chart's area-weighted face normals.
+}
+
+// True when local edge k of face f (of chart c) is continued by another face of c in the atlas:
+// the two corners share wedges at both endpoints.
+bool interior_side(const Topology& topo, const Atlas& atlas, size_t f, int k, int c) {
+  const Edge& e = topo.edges[static_cast<size_t>(topo.face_edge[f][static_cast<size_t>(k)])];
+  bool interior = false;
+  for (int i = 0; i < e.num_faces && !interior; ++i) {
+    const EdgeIncidence& in = topo.edge_faces[static_cast<size_t>(e.first_incidence + i)];
+    if (in.face == static_cast<int>(f) || atlas.face_chart[static_cast<size_t>(in.face)] != c) continue;
+    const auto& fw = atlas.face_wedge[f];
+    const auto& gw = atlas.face_wedge[static_cast<size_t>(in.face)];
+    const int w0 = fw[static_cast<size_t>(k)], w1 = fw[static_cast<size_t>((k + 1) % 3)];
+    const int g0 = gw[static_cast<size_t>(in.local)], g1 = gw[static_cast<size_t>((in.local + 1) % 3)];
+    interior = (w0 == g0 && w1 == g1) || (w0 == g1 && w1 == g0);
+  }
+  return interior;
+}
+
+// Adds to s.uv_border the UV length of each side of face f (of chart c) that is a chart border.
+void add_border_sides(const Topology& topo, const Atlas& atlas, size_t f, int c, ChartStats& s) {
+  for (int k = 0; k < 3; ++k) {
+    if (interior_side(topo, atlas, f, k, c)) continue;
+    const Vec2& p = atlas.wedge_uv[static_cast<size_t>(atlas.face_wedge[f][static_cast<size_t>(k)])];
+    const Vec2& q = atlas.wedge_uv[static_cast<size_t>(atlas.face_wedge[f][static_cast<size_t>((k + 1) % 3)])];
+    s.uv_border += (p - q).norm();
+  }
+}
+
+// Sets s.centroid, eigenvalues and (unoriented) normal of chart c from its moments: area-weighted,
+// else from its corners when it has no 3D area; unchanged when it has neither.
+void fit_plane(const ChartMoments& m, size_t c, ChartStats& s) {
+  Eigen::Matrix3d cov;
+  Vec3 mu;
+  if (s.area_3d > 0) {
+    mu = m.first[c] / s.area_3d;
+    cov = m.second[c] / s.area_3d - mu * mu.transpose();
+  } else if (m.npts[c] > 0) {
+    mu = m.pts1[c] / m.npts[c];
+    cov = m.pts2[c] / m.npts[c] - mu * mu.transpose();
+  } else {
+    return;
+  }
+  s.centroid = mu + m.ref[c];
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  s.eigenvalues = es.eigenvalues().cwiseMax(0.0);
+  s.normal = es.eigenvectors().col(0);
+}
+
+// Orients each chart's plane normal with the chart's area-weighted face normals.
+void orient_normals(const TexturedMesh& mesh, const Atlas& atlas, std::vector<ChartStats>& st) {
+  const size_t nc = st.size();
   std::vector<Vec3> nsum(nc, Vec3::Zero());
   for (size_t f = 0; f < atlas.face_chart.size(); ++f) {
     const int c = atlas.face_chart[f];
@@ -187,6 +198,26 @@ std::vector<ChartStats> chart_stats(const TexturedMesh& mesh, const Topology& to
   }
   for (size_t c = 0; c < nc; ++c)
     if (st[c].normal.dot(nsum[c]) < 0) st[c].normal = -st[c].normal;
+}
+
+}  // namespace
+
+std::vector<ChartStats> chart_stats(const TexturedMesh& mesh, const Topology& topo, const Atlas& atlas) {
+  const size_t nc = static_cast<size_t>(atlas.num_charts);
+  std::vector<ChartStats> st(nc);
+  ChartMoments moments(nc);
+  for (size_t f = 0; f < atlas.face_chart.size(); ++f) {
+    const int c = atlas.face_chart[f];
+    if (c < 0) continue;
+    ChartStats& s = st[static_cast<size_t>(c)];
+    s.page = atlas.chart_page[static_cast<size_t>(c)];
+    ++s.faces;
+    s.uv_area += std::abs(atlas_face_area(atlas, static_cast<int>(f)));
+    add_face_moments(mesh, f, static_cast<size_t>(c), s, moments);
+    add_border_sides(topo, atlas, f, c, s);
+  }
+  for (size_t c = 0; c < nc; ++c) fit_plane(moments, c, st[c]);
+  orient_normals(mesh, atlas, st);
   return st;
 }
 
