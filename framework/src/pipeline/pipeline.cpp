@@ -576,6 +576,42 @@ void finish_report(json& report, Clock::time_point t_start, double cpu_start) {
   report["peak_rss_bytes"] = peak;
 }
 
+/// Creates the detector, merger and packer of config in turn and runs each on ctx; false when the
+/// run stops after one of them (options.stop_after).
+bool run_stages(json& report, const PipelineConfig& config, const RunOptions& options, StageContext& ctx,
+                size_t input_overlaps) {
+  Registry& reg = Registry::instance();
+  const StageConfig* stages[] = {&config.detector, &config.merger, &config.packer};
+  for (const StageConfig* sc : stages) {
+    auto stage = reg.create(sc->type);
+    stage->set_options(sc->options);
+    stage_step(report, *stage, *sc, ctx, input_overlaps);
+    if (options.on_stage) options.on_stage(sc->section, ctx);
+    if (sc->section == options.stop_after) return false;
+  }
+  return true;
+}
+
+/// Records the output's faces, charts, pages and megapixels in report["output_stats"].
+void record_output_stats(json& report, const TexturedMesh& mesh, const StageContext& ctx) {
+  double mp_out = 0;
+  for (const auto& p : ctx.layout.pages) mp_out += static_cast<double>(p.width) * p.height / 1e6;
+  report["output_stats"] = {{"faces", mesh.faces.size()},
+                            {"charts", ctx.atlas.num_charts},
+                            {"pages", ctx.layout.pages.size()},
+                            {"megapixels", mp_out}};
+}
+
+/// Writes the report (when output.write_report) as the output set's manifest, then commits the set.
+void commit_outputs(const PipelineConfig& config, const json& report, const std::string& stem, OutputSet& outputs) {
+  // The report is the manifest: written last, so its presence vouches for the set beside it.
+  if (config.output.get_bool("write_report")) {
+    const std::string path = outputs.manifest_path_for(stem + ".report.json");
+    write_file_atomic(path, report.dump(2) + "\n");
+  }
+  outputs.commit();
+}
+
 }  // namespace
 
 json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
@@ -614,15 +650,7 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   ctx.progress = progress;
   ctx.input_path = options.input;
   ctx.outputs = outputs.get();
-  Registry& reg = Registry::instance();
-  const StageConfig* stages[] = {&config.detector, &config.merger, &config.packer};
-  for (const StageConfig* sc : stages) {
-    auto stage = reg.create(sc->type);
-    stage->set_options(sc->options);
-    stage_step(report, *stage, *sc, ctx, input_overlaps);
-    if (options.on_stage) options.on_stage(sc->section, ctx);
-    if (sc->section == options.stop_after) return report;
-  }
+  if (!run_stages(report, config, options, ctx, input_overlaps)) return report;
 
   // note: the topology and the input charts serve the stages only; released here, so they do not
   // add to the resampling's peak (input and output pages are held at once there).
@@ -641,23 +669,11 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   // run's peak on large models.
   release_free_memory();
 
-  double mp_out = 0;
-  for (const auto& p : ctx.layout.pages) mp_out += static_cast<double>(p.width) * p.height / 1e6;
-  report["output_stats"] = {{"faces", mesh.faces.size()},
-                            {"charts", ctx.atlas.num_charts},
-                            {"pages", ctx.layout.pages.size()},
-                            {"megapixels", mp_out}};
+  record_output_stats(report, mesh, ctx);
 
   if (options.write_output) write_step(report, config, options, format, model, ctx, out_pages, stem, outputs.get());
   finish_report(report, t_start, cpu_start);
-  if (outputs) {
-    // The report is the manifest: written last, so its presence vouches for the set beside it.
-    if (config.output.get_bool("write_report")) {
-      const std::string path = outputs->manifest_path_for(stem + ".report.json");
-      write_file_atomic(path, report.dump(2) + "\n");
-    }
-    outputs->commit();
-  }
+  if (outputs) commit_outputs(config, report, stem, *outputs);
   return report;
 }
 
