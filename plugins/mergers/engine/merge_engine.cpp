@@ -91,6 +91,11 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
                "regions and drop it as soon as that run's distortion reaches unconstrained_trial_share x global_bound "
                "(same atlas; the merger's wall time falls where the trial is kept, its memory holds two engines: the "
                "1M-face synthetic factory 923 -> 1452 MiB); false runs it after that run"),
+      opt_int("unconstrained_trial_beside_max_faces", 300000,
+              "Models with more faces than this run the unconstrained trial after the run with regions even when "
+              "unconstrained_trial_beside is true, so that two engines are never held at once (same atlas; the "
+              "1M-face synthetic factory stays under 1 GB)")
+          .at_least(0),
       opt_double("unconstrained_trial_share", 0.8,
                  "The unconstrained trial runs when the global ARAP distortion after merging with regions is below "
                  "this share of global_bound")
@@ -127,6 +132,7 @@ MergeOptions merge_options_from(const Options& o) {
   m.unconstrained_trial = o.get_bool("unconstrained_trial");
   m.unconstrained_trial_share = o.get_double("unconstrained_trial_share");
   m.unconstrained_trial_beside = o.get_bool("unconstrained_trial_beside");
+  m.unconstrained_trial_beside_max_faces = static_cast<size_t>(o.get_int("unconstrained_trial_beside_max_faces"));
   m.fan_targets = o.get_bool("fan_targets");
   m.fan_margin = o.get_double("fan_margin");
   m.partial_weld_tries = static_cast<int>(o.get_int("partial_weld_tries"));
@@ -319,7 +325,8 @@ MergeReport run_merges(const TexturedMesh& mesh, const Topology& topo, Atlas& at
     return run_with_regions(mesh, topo, atlas, face_region, opt, solver, progress, {});
   Atlas input = atlas;
   Trial trial(mesh, topo, input, opt, solver);
-  const bool beside = opt.unconstrained_trial_beside && thread_count() > 1 && solver.reentrant();
+  const bool beside = opt.unconstrained_trial_beside && mesh.num_faces() <= opt.unconstrained_trial_beside_max_faces &&
+                      thread_count() > 1 && solver.reentrant();
   if (beside) trial.start_beside();
   MergeReport r = run_with_regions(mesh, topo, atlas, face_region, opt, solver, progress,
                                    beside ? std::function<void()>([&trial] { trial.drop(); }) : nullptr);

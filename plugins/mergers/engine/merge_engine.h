@@ -78,6 +78,9 @@ struct MergeOptions {
   /// is dropped when that run's distortion reaches the share (same atlas, less wall time, two engines in
   /// memory); false runs it after that run.
   bool unconstrained_trial_beside = true;
+  /// Models with more faces run the trial after the run with regions whatever unconstrained_trial_beside
+  /// says: two engines are never held at once above this size (docs/speed.md, "The unconstrained trial beside").
+  size_t unconstrained_trial_beside_max_faces = 300000;
   /// Solve with target shapes that close over-full boundary fans (docs/mergers.md step 6).
   bool fan_targets = false;
   double fan_margin = 0.01;  ///< fan targets close at 2 pi (1 - fan_margin)

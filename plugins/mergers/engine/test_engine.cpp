@@ -582,7 +582,7 @@ TEST(MergeEngine, KeptSeamFiguresAreTheSeamsOwn) {
 
 /// run_merges with the unconstrained trial on the 20 x 16 distorted grid in squares of regions: its
 /// report and atlas, with `threads` threads and the trial beside or after the run with regions.
-std::pair<MergeReport, Atlas> trial_run(int threads, bool beside, double share) {
+std::pair<MergeReport, Atlas> trial_run(int threads, bool beside, double share, size_t beside_max_faces = 300000) {
   set_thread_count(threads);
   test::Run run(test::distorted_fragmented_grid(20, 16, 0.08));
   MergeOptions o;
@@ -590,6 +590,7 @@ std::pair<MergeReport, Atlas> trial_run(int threads, bool beside, double share) 
   o.unconstrained_trial = true;
   o.unconstrained_trial_share = share;
   o.unconstrained_trial_beside = beside;
+  o.unconstrained_trial_beside_max_faces = beside_max_faces;
   ArapSolver solver;
   MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, squares(run.mesh, 3.0), o, solver, {});
   set_thread_count(0);
@@ -645,5 +646,20 @@ TEST(MergeEngine, RegionsOfTheWrongSizeAreAnError) {
                std::invalid_argument);
 }
 
+TEST(MergeEngine, AModelAboveTheBesideLimitRunsTheTrialAfter) {
+  // The 20 x 16 grid has 640 faces: with the limit at 639 the trial runs after the run with regions
+  // even on two threads ("off"), at 640 it runs beside ("ended"); both give the same atlas.
+  const auto [over, atlas_over] = trial_run(2, true, 0.8, 639);
+  const auto [at, atlas_at] = trial_run(2, true, 0.8, 640);
+  EXPECT_EQ(over.unconstrained_trial_beside, "off");
+  EXPECT_EQ(at.unconstrained_trial_beside, "ended");
+  EXPECT_TRUE(over.unconstrained_trial_kept);
+  EXPECT_EQ(over.unconstrained_trial_kept, at.unconstrained_trial_kept);
+  EXPECT_EQ(atlas_over.face_chart, atlas_at.face_chart);
+  EXPECT_EQ(atlas_over.face_wedge, atlas_at.face_wedge);
+  EXPECT_TRUE(atlas_over.wedge_uv == atlas_at.wedge_uv);
+}
+
 }  // namespace
 }  // namespace texdefrag::merge
+
