@@ -12,21 +12,57 @@
 
 namespace texdefrag::cli {
 
+namespace {
+
+/// The arguments of `texdefrag eval`, defaults from the eval option structs.
+struct EvalArgs {
+  std::string in, out;
+  bool json = false;
+  bool no_texture = false;
+  size_t samples = eval::FidelityOptions{}.samples;
+  double tolerance = eval::MatchOptions{}.position_tolerance;
+  bool no_appearance = false;
+  int mip_levels = eval::EvalOptions{}.clash_max_level;
+  int render_views = eval::RenderFidelityOptions{}.views;
+  int render_size = eval::RenderFidelityOptions{}.size;
+  int render_steps = eval::RenderFidelityOptions{}.max_level;
+  int render_supersample = eval::RenderFidelityOptions{}.supersample;
+};
+
+/// A finite number >= 0 (CLI::Range lets NaN through: every comparison with NaN is false).
+CLI::Validator non_negative_number() {
+  return CLI::Validator(
+      [](std::string& s) {
+        try {
+          size_t used = 0;
+          const double d = std::stod(s, &used);
+          if (used == s.size() && std::isfinite(d) && d >= 0) return std::string();
+        } catch (const std::exception&) {
+        }
+        return "must be a finite number >= 0, got '" + s + "'";
+      },
+      "NUMBER >= 0");
+}
+
+/// The metric options that `a` asks for (validated by the command's checks).
+eval::EvalOptions eval_options(const EvalArgs& a) {
+  eval::EvalOptions opt;
+  opt.fidelity.samples = a.samples;
+  opt.match.position_tolerance = a.tolerance;
+  opt.texture = !a.no_texture;
+  opt.appearance = !a.no_appearance;
+  opt.clash_max_level = a.mip_levels;
+  opt.render.max_level = a.render_steps;
+  opt.render.supersample = a.render_supersample;
+  opt.render.views = a.render_views;
+  opt.render.size = a.render_size;
+  return opt;
+}
+
+}  // namespace
+
 CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
-  struct Args {
-    std::string in, out;
-    bool json = false;
-    bool no_texture = false;
-    size_t samples = eval::FidelityOptions{}.samples;
-    double tolerance = eval::MatchOptions{}.position_tolerance;
-    bool no_appearance = false;
-    int mip_levels = eval::EvalOptions{}.clash_max_level;
-    int render_views = eval::RenderFidelityOptions{}.views;
-    int render_size = eval::RenderFidelityOptions{}.size;
-    int render_steps = eval::RenderFidelityOptions{}.max_level;
-    int render_supersample = eval::RenderFidelityOptions{}.supersample;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<EvalArgs>();
   CLI::App* sub = app.add_subcommand("eval", "Compare an input model with a defragmented output: charts, seams, "
                                              "distortion, texture size and fidelity (docs/eval.md)");
   sub->add_option("IN", args->in, "input model: OBJ, OSGB or glTF/GLB (the model before defragmentation)")->required();
@@ -37,18 +73,7 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
   sub->add_flag("--no-texture", args->no_texture, "skip texture fidelity (do not read the page images)");
   sub->add_option("--position-tolerance", args->tolerance,
                   "model units: output positions this close to an input position are the same vertex")
-      ->check(CLI::Validator(
-          [](std::string& s) {
-            // note: CLI::Range lets NaN through (every comparison with NaN is false).
-            try {
-              size_t used = 0;
-              const double d = std::stod(s, &used);
-              if (used == s.size() && std::isfinite(d) && d >= 0) return std::string();
-            } catch (const std::exception&) {
-            }
-            return "must be a finite number >= 0, got '" + s + "'";
-          },
-          "NUMBER >= 0"));
+      ->check(non_negative_number());
   sub->add_flag("--no-appearance", args->no_appearance,
                 "skip the appearance measures (texel clashes per MIP level, seam colour, rendered views)");
   sub->add_option("--mip-levels", args->mip_levels, "highest MIP level of the texel clashes and the seam colour discrepancy")
@@ -74,16 +99,7 @@ CLI::App* add_eval_command(CLI::App& app, int& exit_code) {
         std::ifstream probe(*p);
         if (!probe) throw std::runtime_error("cannot read '" + *p + "'");
       }
-      eval::EvalOptions opt;
-      opt.fidelity.samples = args->samples;
-      opt.match.position_tolerance = args->tolerance;
-      opt.texture = !args->no_texture;
-      opt.appearance = !args->no_appearance;
-      opt.clash_max_level = args->mip_levels;
-      opt.render.max_level = args->render_steps;
-      opt.render.supersample = args->render_supersample;
-      opt.render.views = args->render_views;
-      opt.render.size = args->render_size;
+      const eval::EvalOptions opt = eval_options(*args);
       const eval::Comparison c = eval::compare_files(args->in, args->out, opt);
       if (args->json)
         std::cout << eval::to_json(c).dump(2) << "\n";

@@ -17,6 +17,7 @@
 
 #include <cstdio>
 #include <iostream>
+#include <memory>
 
 using namespace texdefrag;
 
@@ -94,6 +95,146 @@ int guarded(F&& body) {
   }
 }
 
+/// The summary line of `run` on one model (stderr): faces, charts in => out, megapixels, time.
+/// `report` is that run's report (pipeline.h); `input` names the model.
+void print_run_summary(const std::string& input, const json& report) {
+  const auto& in = report["input_stats"];
+  const auto& out = report["output_stats"];
+  const double cin = in["charts"]["charts"].get<double>(), cout_ = out["charts"].get<double>();
+  std::fprintf(stderr, "%s: %d faces, %d charts => %d charts (%.1f%%), %.2f MP => %.2f MP, in %.2f s\n",
+               input.c_str(), in["faces"].get<int>(), static_cast<int>(cin), static_cast<int>(cout_),
+               cin > 0 ? 100.0 * (cout_ - cin) / cin : 0.0, in["megapixels"].get<double>(),
+               out["megapixels"].get<double>(), report["total_time_s"].get<double>());
+}
+
+/// Adds `texdefrag run` (one model, a production folder or a tileset) to `app`; its callback sets
+/// `exit_code` (0 ok, 1 failure, 2 usage or configuration error). `app` keeps the parsed arguments.
+void add_run_command(CLI::App& app, int& exit_code) {
+  struct Args {
+    std::string config_path, input, output_dir;
+    std::vector<std::string> sets;
+    bool quiet = false, no_write = false, print_report = false;
+    int threads = 0;
+    bool allow_missing = false;
+    std::vector<std::string> contents;
+  };
+  auto a = std::make_shared<Args>();
+  auto* run = app.add_subcommand("run", "Run a pipeline configuration on one model");
+  run->add_option("--config,-c", a->config_path,
+                  "Configuration: a JSON file or a shipped name (`texdefrag configs`); default: best");
+  run->add_option("input", a->input, "Input model (OBJ, OSGB, glTF/GLB), production folder (docs/production.md) or 3D Tiles tileset JSON")->required();
+  run->add_option("-o,--output", a->output_dir, "Output folder (created; must not be the input's folder)");
+  cli::add_set_option(run, a->sets, "Override an option: SECTION.OPTION=VALUE or STAGE.OPTION=VALUE (one per --set; repeat it for more)");
+  run->add_flag("--quiet,-q", a->quiet, "No progress bar and no summary line");
+  run->add_flag("--no-write", a->no_write, "Run the stages and report, write nothing");
+  run->add_flag("--report", a->print_report, "Print the run report JSON on standard output");
+  run->add_option("--threads", a->threads, "Threads inside the run (0 = every core; the output does not depend on it)")
+      ->check(CLI::Range(0, 1024));
+  run->add_flag("--allow-missing-children", a->allow_missing,
+                "Process models whose referenced child files (OSGB PagedLOD levels) are missing; listed in the report");
+  run->add_option("--contents", a->contents,
+                  "Tileset input: only the model holding these contents (relative names; texdefrag batch's tasks)");
+  run->callback([a, &exit_code] {
+    exit_code = guarded([&] {
+      set_thread_count(a->threads);
+      const PipelineConfig cfg =
+          load_config(resolve_config(a->config_path.empty() ? kDefaultConfig : a->config_path), a->sets);
+      if (a->output_dir.empty() && !a->no_write) {
+        std::cerr << "texdefrag run: -o OUTDIR is required (or --no-write)\n";
+        return 2;
+      }
+      if (is_production(a->input))
+        return cli::run_production_command(cfg, a->input, a->output_dir, a->allow_missing, a->quiet,
+                                           make_progress(a->quiet));
+      if (is_tileset(a->input))
+        return cli::run_tileset_cli(cfg, a->input, a->output_dir, make_progress(a->quiet), a->quiet, a->print_report,
+                                    a->contents);
+      if (!a->contents.empty())
+        throw std::runtime_error("--contents applies to a tileset JSON input, not to " + a->input);
+      RunOptions ro;
+      ro.input = a->input;
+      ro.output_dir = a->output_dir;
+      ro.write_output = !a->no_write;
+      ro.allow_missing_children = a->allow_missing;
+      ro.progress = make_progress(a->quiet);
+      const json report = run_pipeline(cfg, ro);
+      if (a->print_report) std::cout << report.dump(2) << "\n";
+      cli::print_warnings(report, "");
+      if (!a->quiet) print_run_summary(a->input, report);
+      return 0;
+    });
+  });
+}
+
+/// Adds `texdefrag validate` (a configuration checked without reading any mesh) to `app`; its
+/// callback sets `exit_code` as guarded() maps it.
+void add_validate_command(CLI::App& app, int& exit_code) {
+  struct Args {
+    std::string config_path;
+    std::vector<std::string> sets;
+  };
+  auto a = std::make_shared<Args>();
+  auto* validate = app.add_subcommand("validate", "Validate a pipeline configuration without reading any mesh");
+  validate->add_option("--config,-c", a->config_path, "Configuration: a JSON file or a shipped name")->required();
+  cli::add_set_option(validate, a->sets, "Override an option (as in run)");
+  validate->callback([a, &exit_code] {
+    exit_code = guarded([&] {
+      load_config(resolve_config(a->config_path), a->sets);
+      std::cout << a->config_path << ": ok\n";
+      return 0;
+    });
+  });
+}
+
+/// `texdefrag plugins`: lists every stage (name and description, or JSON), or describes the one
+/// named `describe`. Returns the exit code: 0, or 2 for an unknown stage (nearest name suggested).
+int list_or_describe_stages(const std::string& describe, bool as_json) {
+  Registry& reg = Registry::instance();
+  reg.load_plugins();
+  std::vector<std::pair<const StageInfo*, std::string>> all;
+  for (const StageInfo* i : reg.list()) all.emplace_back(i, reg.source_of(i->name));
+  all.emplace_back(&texture_stage_info(), "framework");
+  all.emplace_back(&writer_stage_info(), "framework");
+  if (!describe.empty()) {
+    for (const auto& [info, src] : all)
+      if (info->name == describe) {
+        if (as_json) std::cout << describe_json(*info, src).dump(2) << "\n";
+        else print_describe(*info, src);
+        return 0;
+      }
+    std::vector<std::string> names;
+    for (const auto& p : all) names.push_back(p.first->name);
+    std::cerr << "unknown stage '" << describe << "'";
+    const std::string near = nearest(describe, names);
+    if (!near.empty()) std::cerr << " (did you mean '" << near << "'?)";
+    std::cerr << "\n";
+    return 2;
+  }
+  if (as_json) {
+    json arr = json::array();
+    for (const auto& [info, src] : all) arr.push_back(describe_json(*info, src));
+    std::cout << arr.dump(2) << "\n";
+  } else {
+    for (const auto& [info, src] : all) std::printf("%-28s %s\n", info->name.c_str(), info->description.c_str());
+  }
+  return 0;
+}
+
+/// Adds `texdefrag plugins [--describe NAME] [--json]` to `app`; its callback sets `exit_code`.
+void add_plugins_command(CLI::App& app, int& exit_code) {
+  struct Args {
+    std::string describe;
+    bool as_json = false;
+  };
+  auto a = std::make_shared<Args>();
+  auto* plugins = app.add_subcommand("plugins", "List stages, or describe one's options");
+  plugins->add_option("--describe", a->describe, "Stage to describe (e.g. packers.shelf)");
+  plugins->add_flag("--json", a->as_json, "JSON output");
+  plugins->callback([a, &exit_code] {
+    exit_code = guarded([&] { return list_or_describe_stages(a->describe, a->as_json); });
+  });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -103,115 +244,9 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version,-V", cli::version_text());
   int exit_code = 0;
 
-  // run
-  std::string config_path, input, output_dir;
-  std::vector<std::string> sets;
-  bool quiet = false, no_write = false, print_report = false;
-  auto* run = app.add_subcommand("run", "Run a pipeline configuration on one model");
-  run->add_option("--config,-c", config_path,
-                  "Configuration: a JSON file or a shipped name (`texdefrag configs`); default: best");
-  run->add_option("input", input, "Input model (OBJ, OSGB, glTF/GLB), production folder (docs/production.md) or 3D Tiles tileset JSON")->required();
-  run->add_option("-o,--output", output_dir, "Output folder (created; must not be the input's folder)");
-  cli::add_set_option(run, sets, "Override an option: SECTION.OPTION=VALUE or STAGE.OPTION=VALUE (one per --set; repeat it for more)");
-  run->add_flag("--quiet,-q", quiet, "No progress bar and no summary line");
-  run->add_flag("--no-write", no_write, "Run the stages and report, write nothing");
-  run->add_flag("--report", print_report, "Print the run report JSON on standard output");
-  int threads = 0;
-  run->add_option("--threads", threads, "Threads inside the run (0 = every core; the output does not depend on it)")
-      ->check(CLI::Range(0, 1024));
-  bool allow_missing = false;
-  run->add_flag("--allow-missing-children", allow_missing,
-                "Process models whose referenced child files (OSGB PagedLOD levels) are missing; listed in the report");
-  std::vector<std::string> contents;
-  run->add_option("--contents", contents,
-                  "Tileset input: only the model holding these contents (relative names; texdefrag batch's tasks)");
-  run->callback([&] {
-    exit_code = guarded([&] {
-      set_thread_count(threads);
-      const PipelineConfig cfg = load_config(resolve_config(config_path.empty() ? kDefaultConfig : config_path), sets);
-      if (output_dir.empty() && !no_write) {
-        std::cerr << "texdefrag run: -o OUTDIR is required (or --no-write)\n";
-        return 2;
-      }
-      if (is_production(input))
-        return cli::run_production_command(cfg, input, output_dir, allow_missing, quiet, make_progress(quiet));
-      if (is_tileset(input))
-        return cli::run_tileset_cli(cfg, input, output_dir, make_progress(quiet), quiet, print_report, contents);
-      if (!contents.empty()) throw std::runtime_error("--contents applies to a tileset JSON input, not to " + input);
-      RunOptions ro;
-      ro.input = input;
-      ro.output_dir = output_dir;
-      ro.write_output = !no_write;
-      ro.allow_missing_children = allow_missing;
-      ro.progress = make_progress(quiet);
-      const json report = run_pipeline(cfg, ro);
-      if (print_report) std::cout << report.dump(2) << "\n";
-      cli::print_warnings(report, "");
-      if (!quiet) {
-        const auto& in = report["input_stats"];
-        const auto& out = report["output_stats"];
-        const double cin = in["charts"]["charts"].get<double>(), cout_ = out["charts"].get<double>();
-        std::fprintf(stderr, "%s: %d faces, %d charts => %d charts (%.1f%%), %.2f MP => %.2f MP, in %.2f s\n",
-                     input.c_str(), in["faces"].get<int>(), static_cast<int>(cin), static_cast<int>(cout_),
-                     cin > 0 ? 100.0 * (cout_ - cin) / cin : 0.0, in["megapixels"].get<double>(),
-                     out["megapixels"].get<double>(), report["total_time_s"].get<double>());
-      }
-      return 0;
-    });
-  });
-
-  // validate
-  auto* validate = app.add_subcommand("validate", "Validate a pipeline configuration without reading any mesh");
-  validate->add_option("--config,-c", config_path, "Configuration: a JSON file or a shipped name")->required();
-  cli::add_set_option(validate, sets, "Override an option (as in run)");
-  validate->callback([&] {
-    exit_code = guarded([&] {
-      load_config(resolve_config(config_path), sets);
-      std::cout << config_path << ": ok\n";
-      return 0;
-    });
-  });
-
-  // plugins
-  std::string describe;
-  bool as_json = false;
-  auto* plugins = app.add_subcommand("plugins", "List stages, or describe one's options");
-  plugins->add_option("--describe", describe, "Stage to describe (e.g. packers.shelf)");
-  plugins->add_flag("--json", as_json, "JSON output");
-  plugins->callback([&] {
-    exit_code = guarded([&] {
-      Registry& reg = Registry::instance();
-      reg.load_plugins();
-      std::vector<std::pair<const StageInfo*, std::string>> all;
-      for (const StageInfo* i : reg.list()) all.emplace_back(i, reg.source_of(i->name));
-      all.emplace_back(&texture_stage_info(), "framework");
-      all.emplace_back(&writer_stage_info(), "framework");
-      if (!describe.empty()) {
-        for (const auto& [info, src] : all)
-          if (info->name == describe) {
-            if (as_json) std::cout << describe_json(*info, src).dump(2) << "\n";
-            else print_describe(*info, src);
-            return 0;
-          }
-        std::vector<std::string> names;
-        for (const auto& p : all) names.push_back(p.first->name);
-        std::cerr << "unknown stage '" << describe << "'";
-        const std::string near = nearest(describe, names);
-        if (!near.empty()) std::cerr << " (did you mean '" << near << "'?)";
-        std::cerr << "\n";
-        return 2;
-      }
-      if (as_json) {
-        json arr = json::array();
-        for (const auto& [info, src] : all) arr.push_back(describe_json(*info, src));
-        std::cout << arr.dump(2) << "\n";
-      } else {
-        for (const auto& [info, src] : all) std::printf("%-28s %s\n", info->name.c_str(), info->description.c_str());
-      }
-      return 0;
-    });
-  });
-
+  add_run_command(app, exit_code);
+  add_validate_command(app, exit_code);
+  add_plugins_command(app, exit_code);
   cli::add_eval_command(app, exit_code);
   cli::add_bench_command(app, exit_code);
   cli::add_synth_command(app, exit_code);
