@@ -192,9 +192,10 @@ std::string figures_section(const ReportOptions& o, const fs::path& root) {
   return s.str();
 }
 
-}  // namespace
-
-ReportSummary write_report(const std::vector<ReportModel>& models, const ReportOptions& o) {
+/// Creates the report folder `o.out_dir` (lib, data, atlas, figures, thumbs) with the viewer's
+/// files; returns its absolute path. Throws ReportError when the three.js bundle is missing or an
+/// option is out of range (before anything is written). An existing thumbs/thumbs.js is kept.
+fs::path prepare_report_folder(const ReportOptions& o) {
   const std::string three = o.three_js.empty() ? default_three_bundle() : o.three_js;
   if (three.empty() || !fs::is_regular_file(three))
     throw ReportError("three.js bundle not found ('" + three + "'): run scripts/install-npm.sh (or set TEXDEFRAG_THREE_JS)");
@@ -207,89 +208,118 @@ ReportSummary write_report(const std::vector<ReportModel>& models, const ReportO
   // The browser check (--check) rewrites thumbs/thumbs.js with the screenshots it took; kept when
   // a report is rewritten over an earlier one.
   if (!fs::exists(root / "thumbs" / "thumbs.js")) write_text((root / "thumbs" / "thumbs.js").string(), "TD.thumbs = {};\n");
+  return root;
+}
 
+/// What write_report gathers over the models: the summary, the viewer manifest, the models' HTML
+/// sections, and per label ("input" and each output label) each metric's values over the models.
+struct ReportState {
   ReportSummary sum;
-  json manifest = {{"max_faces", o.max_faces}, {"models", json::array()}};
+  json manifest;
   std::ostringstream body;
-  std::vector<std::string> all_labels;
+  std::vector<std::string> all_labels;  // output labels, in the order first seen
   std::map<std::string, std::map<std::string, std::vector<double>>> per_label;  // label -> metric -> values
-  for (size_t mi = 0; mi < models.size(); ++mi) {
-    const ReportModel& m = models[mi];
-    const LoadedView in = load_view(m.input_obj);
-    std::string region_note;
-    const std::vector<int> regions = input_regions(read_obj(m.input_obj), m, region_note);
-    // Frame: the input's bounding box (every view is centred the same way).
-    Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-    for (const Vec3& p : in.mesh.positions)
-      if (p.allFinite()) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-    if (hi.x() < lo.x()) lo = hi = Vec3::Zero();
-    ExportOptions eo;
-    eo.data_dir = (root / "data").string();
-    eo.centre = 0.5 * (lo + hi);
-    eo.max_faces = o.max_faces, eo.chunk_faces = o.chunk_faces, eo.texture_max = o.texture_max;
-    json jm = {{"id", m.id}, {"index", mi}, {"radius", 0.5 * (hi - lo).norm()}, {"views", json::array()}};
-    std::ostringstream atlas;
-    std::vector<std::string> labels;
-    std::vector<json> values;
-    json input_values = m.outputs.empty() ? json::object() : m.outputs.front().metrics;
-    for (size_t vi = 0; vi <= m.outputs.size(); ++vi) {
-      const bool is_input = vi == 0;
-      const std::string label = is_input ? "input" : m.outputs[vi - 1].label;
-      LoadedView out;
-      const LoadedView& v = is_input ? in : (out = load_view(m.outputs[vi - 1].obj), out);
-      ViewData vd;
-      vd.key = "m" + std::to_string(mi) + "v" + std::to_string(vi);
-      vd.mesh = &v.mesh;
-      vd.face_chart = v.chart;
-      if (!regions.empty()) {
-        if (is_input) {
-          vd.face_region = regions;
-        } else {  // each output face takes the region of its input face (matched by 3D triangle)
-          const eval::FaceMatch match = eval::match_faces(in.mesh, v.mesh);
-          vd.face_region.assign(v.mesh.faces.size(), -1);
-          for (size_t f = 0; f < v.mesh.faces.size(); ++f)
-            if (match.input_of_output[f] >= 0) vd.face_region[f] = regions[static_cast<size_t>(match.input_of_output[f])];
-        }
-      }
-      const ViewStats st = export_view(vd, eo);
-      sum.views += st.too_large ? 0 : 1;
-      sum.too_large += st.too_large ? 1 : 0;
-      sum.data_bytes += st.bytes;
-      jm["views"].push_back({{"key", vd.key}, {"label", label}, {"faces", st.faces}, {"pages", st.pages},
-                             {"chunks", st.chunks}, {"too_large", st.too_large}, {"regions", !regions.empty()},
-                             {"charts", v.chart.empty() ? 0 : 1 + *std::max_element(v.chart.begin(), v.chart.end())}});
-      atlas << "<figure><figcaption>" << html(label) << "</figcaption>";
-      for (const std::string& p : write_atlas_pages(v.mesh, v.chart, (root / "atlas" / vd.key).string(), o.atlas_max)) {
-        const std::string rel = "atlas/" + fs::path(p).filename().string();
-        atlas << "<a href=\"" << rel << "\"><img loading=\"lazy\" src=\"" << rel << "\" alt=\"" << html(label) << " atlas\"></a>";
-      }
-      atlas << "</figure>";
-      if (!is_input) {
-        labels.push_back(label);
-        values.push_back(m.outputs[vi - 1].metrics);
-        if (std::find(all_labels.begin(), all_labels.end(), label) == all_labels.end()) all_labels.push_back(label);
-        for (const Row& r : kRows) per_label[label][r.out].push_back(value_of(m.outputs[vi - 1].metrics, r.out));
-      }
-    }
-    for (const Row& r : kRows)
-      if (*r.in) per_label["input"][r.out].push_back(value_of(input_values, r.in));
-    manifest["models"].push_back(jm);
-    body << "<section class=\"model\" id=\"model-" << mi << "\"><h2>" << html(m.id) << "</h2>\n"
-         << "<p class=\"note\">" << html(m.input_obj) << " &mdash; " << in.mesh.faces.size() << " faces; " << html(region_note)
-         << "</p>\n<button class=\"open-viewer\" data-model=\"" << html(m.id) << "\">Show in the 3D viewer</button>\n"
-         << "<div class=\"viewer-slot\"></div>\n<h3>Metrics</h3>\n" << metrics_table(labels, values, input_values)
-         << "<h3>Atlas pages (chart outlines in yellow)</h3>\n<div class=\"atlas\">" << atlas.str() << "</div></section>\n";
-    ++sum.models;
-  }
+};
 
-  // Summary over models: medians per label.
+/// The frame of one model's views: the input's bounding box over its finite positions (every view
+/// is centred the same way); both corners zero when no position is finite.
+struct ModelFrame {
+  Vec3 lo, hi;
+};
+
+/// The frame of `mesh`'s views (ModelFrame).
+ModelFrame model_frame(const TexturedMesh& mesh) {
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (const Vec3& p : mesh.positions)
+    if (p.allFinite()) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  if (hi.x() < lo.x()) lo = hi = Vec3::Zero();
+  return {lo, hi};
+}
+
+/// Exports view `vi` of model `mi` (0: the input `in`; k > 0: output k - 1) through `eo`: its data
+/// files (input regions carried to output faces by matched 3D triangles), its entry appended to
+/// jm["views"] and its atlas pages as one <figure> appended to `atlas`; counted in `sum`.
+void export_model_view(const ReportModel& m, size_t mi, size_t vi, const LoadedView& in, const std::vector<int>& regions,
+                       const ExportOptions& eo, const fs::path& root, int atlas_max, ReportSummary& sum, json& jm,
+                       std::ostringstream& atlas) {
+  const bool is_input = vi == 0;
+  const std::string label = is_input ? "input" : m.outputs[vi - 1].label;
+  LoadedView out;
+  const LoadedView& v = is_input ? in : (out = load_view(m.outputs[vi - 1].obj), out);
+  ViewData vd;
+  vd.key = "m" + std::to_string(mi) + "v" + std::to_string(vi);
+  vd.mesh = &v.mesh;
+  vd.face_chart = v.chart;
+  if (!regions.empty()) {
+    if (is_input) {
+      vd.face_region = regions;
+    } else {  // each output face takes the region of its input face (matched by 3D triangle)
+      const eval::FaceMatch match = eval::match_faces(in.mesh, v.mesh);
+      vd.face_region.assign(v.mesh.faces.size(), -1);
+      for (size_t f = 0; f < v.mesh.faces.size(); ++f)
+        if (match.input_of_output[f] >= 0) vd.face_region[f] = regions[static_cast<size_t>(match.input_of_output[f])];
+    }
+  }
+  const ViewStats st = export_view(vd, eo);
+  sum.views += st.too_large ? 0 : 1;
+  sum.too_large += st.too_large ? 1 : 0;
+  sum.data_bytes += st.bytes;
+  jm["views"].push_back({{"key", vd.key}, {"label", label}, {"faces", st.faces}, {"pages", st.pages},
+                         {"chunks", st.chunks}, {"too_large", st.too_large}, {"regions", !regions.empty()},
+                         {"charts", v.chart.empty() ? 0 : 1 + *std::max_element(v.chart.begin(), v.chart.end())}});
+  atlas << "<figure><figcaption>" << html(label) << "</figcaption>";
+  for (const std::string& p : write_atlas_pages(v.mesh, v.chart, (root / "atlas" / vd.key).string(), atlas_max)) {
+    const std::string rel = "atlas/" + fs::path(p).filename().string();
+    atlas << "<a href=\"" << rel << "\"><img loading=\"lazy\" src=\"" << rel << "\" alt=\"" << html(label) << " atlas\"></a>";
+  }
+  atlas << "</figure>";
+}
+
+/// Adds model `mi` to `st`: every view exported (export_model_view), its manifest entry, its HTML
+/// section (metrics table, atlas pages) and its metric values per label.
+void add_model(const ReportModel& m, size_t mi, const fs::path& root, const ReportOptions& o, ReportState& st) {
+  const LoadedView in = load_view(m.input_obj);
+  std::string region_note;
+  const std::vector<int> regions = input_regions(read_obj(m.input_obj), m, region_note);
+  const auto [lo, hi] = model_frame(in.mesh);
+  ExportOptions eo;
+  eo.data_dir = (root / "data").string();
+  eo.centre = 0.5 * (lo + hi);
+  eo.max_faces = o.max_faces, eo.chunk_faces = o.chunk_faces, eo.texture_max = o.texture_max;
+  json jm = {{"id", m.id}, {"index", mi}, {"radius", 0.5 * (hi - lo).norm()}, {"views", json::array()}};
+  std::ostringstream atlas;
+  std::vector<std::string> labels;
+  std::vector<json> values;
+  json input_values = m.outputs.empty() ? json::object() : m.outputs.front().metrics;
+  for (size_t vi = 0; vi <= m.outputs.size(); ++vi) {
+    export_model_view(m, mi, vi, in, regions, eo, root, o.atlas_max, st.sum, jm, atlas);
+    if (vi == 0) continue;
+    const std::string& label = m.outputs[vi - 1].label;
+    labels.push_back(label);
+    values.push_back(m.outputs[vi - 1].metrics);
+    if (std::find(st.all_labels.begin(), st.all_labels.end(), label) == st.all_labels.end()) st.all_labels.push_back(label);
+    for (const Row& r : kRows) st.per_label[label][r.out].push_back(value_of(m.outputs[vi - 1].metrics, r.out));
+  }
+  for (const Row& r : kRows)
+    if (*r.in) st.per_label["input"][r.out].push_back(value_of(input_values, r.in));
+  st.manifest["models"].push_back(jm);
+  st.body << "<section class=\"model\" id=\"model-" << mi << "\"><h2>" << html(m.id) << "</h2>\n"
+          << "<p class=\"note\">" << html(m.input_obj) << " &mdash; " << in.mesh.faces.size() << " faces; " << html(region_note)
+          << "</p>\n<button class=\"open-viewer\" data-model=\"" << html(m.id) << "\">Show in the 3D viewer</button>\n"
+          << "<div class=\"viewer-slot\"></div>\n<h3>Metrics</h3>\n" << metrics_table(labels, values, input_values)
+          << "<h3>Atlas pages (chart outlines in yellow)</h3>\n<div class=\"atlas\">" << atlas.str() << "</div></section>\n";
+  ++st.sum.models;
+}
+
+/// The summary over `num_models` models (only when more than one): medians per label of st.per_label.
+std::string summary_section(size_t num_models, ReportState& st) {
   std::ostringstream head;
-  if (models.size() > 1) {
+  if (num_models > 1) {
     std::vector<json> med;
-    for (const std::string& l : all_labels) {
+    for (const std::string& l : st.all_labels) {
       json j = json::object();
       for (const Row& r : kRows) {
-        const double x = median(per_label[l][r.out]);
+        const double x = median(st.per_label[l][r.out]);
         if (!std::isnan(x)) j[r.out] = std::isinf(x) ? json("inf") : json(x);
       }
       med.push_back(j);
@@ -297,20 +327,26 @@ ReportSummary write_report(const std::vector<ReportModel>& models, const ReportO
     json in_med = json::object();
     for (const Row& r : kRows)
       if (*r.in) {
-        const double x = median(per_label["input"][r.out]);
+        const double x = median(st.per_label["input"][r.out]);
         if (!std::isnan(x)) in_med[r.in] = std::isinf(x) ? json("inf") : json(x);
       }
-    head << "<h2>Summary: medians over " << models.size() << " models</h2>\n" << metrics_table(all_labels, med, in_med);
+    head << "<h2>Summary: medians over " << num_models << " models</h2>\n" << metrics_table(st.all_labels, med, in_med);
   }
-  head << figures_section(o, root);
+  return head.str();
+}
+
+/// index.html: the page head (manifest, scripts), the model links, the viewer, then `head`
+/// (summary and figures) and the models' sections of `st`.
+std::string index_page(const std::vector<ReportModel>& models, const ReportOptions& o, const ReportState& st,
+                       const std::string& head) {
   std::ostringstream page;
   page << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << html(o.title) << "</title>\n"
        << "<link rel=\"stylesheet\" href=\"lib/report.css\">\n"
-       << "<script>window.TD = {manifest: " << manifest.dump() << "};</script>\n"
+       << "<script>window.TD = {manifest: " << st.manifest.dump() << "};</script>\n"
        << "<script src=\"lib/three.js\"></script>\n<script src=\"thumbs/thumbs.js\"></script>\n"
        << "<script src=\"lib/viewer.js\"></script>\n</head><body>\n"
        << "<h1>" << html(o.title) << "</h1>\n<p class=\"note\">" << models.size() << " models; input and "
-       << all_labels.size() << " configurations. Opens from the file system; three.js is in lib/.</p>\n"
+       << st.all_labels.size() << " configurations. Opens from the file system; three.js is in lib/.</p>\n"
        << "<nav class=\"models\">";
   for (size_t mi = 0; mi < models.size(); ++mi)
     page << "<a href=\"#model-" << mi << "\" data-model=\"" << html(models[mi].id) << "\">" << html(models[mi].id) << "</a>";
@@ -320,10 +356,22 @@ ReportSummary write_report(const std::vector<ReportModel>& models, const ReportO
        << "<button data-mode=\"region\">regions</button></span><button id=\"viewer-reset\">reset camera</button>"
        << "<span id=\"viewer-status\">loading&hellip;</span></div>"
        << "<p class=\"note\">Drag to orbit, right-drag to pan, wheel to zoom; every view shares the camera.</p></div>\n"
-       << head.str() << body.str() << "</body></html>\n";
-  write_text((root / "index.html").string(), page.str());
-  sum.index_html = (root / "index.html").string();
-  return sum;
+       << head << st.body.str() << "</body></html>\n";
+  return page.str();
+}
+
+}  // namespace
+
+ReportSummary write_report(const std::vector<ReportModel>& models, const ReportOptions& o) {
+  const fs::path root = prepare_report_folder(o);
+  ReportState st;
+  st.manifest = {{"max_faces", o.max_faces}, {"models", json::array()}};
+  for (size_t mi = 0; mi < models.size(); ++mi) add_model(models[mi], mi, root, o, st);
+  std::string head = summary_section(models.size(), st);
+  head += figures_section(o, root);
+  write_text((root / "index.html").string(), index_page(models, o, st, head));
+  st.sum.index_html = (root / "index.html").string();
+  return st.sum;
 }
 
 }  // namespace texdefrag::report
