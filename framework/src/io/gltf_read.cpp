@@ -425,6 +425,88 @@ ImageRef texture_image(const Document& d, const tinygltf::Model& m, int tex, con
                   (list.empty() ? std::string() : " (looked for " + list + ")"));
 }
 
+/// decode_primitive's Draco branch: the attributes, vertex count and position quantisation of P
+/// from its KHR_draco_mesh_compression data (every attribute must be in it, counts must agree with
+/// the accessors); returns the corner indices. Throws GltfError naming `where`.
+std::vector<uint32_t> decode_draco_primitive(const tinygltf::Model& m, Document& d, Primitive& P, const ojson& pj,
+                                             const tinygltf::Primitive& tp, const std::string& where) {
+  P.draco = true;
+  const ojson& ext = pj["extensions"]["KHR_draco_mesh_compression"];
+  const int bv = ext.value("bufferView", -1);
+  if (bv < 0 || static_cast<size_t>(bv) >= m.bufferViews.size())
+    throw GltfError(where + ": KHR_draco_mesh_compression bufferView " + std::to_string(bv) + " out of range");
+  const tinygltf::BufferView& v = m.bufferViews[static_cast<size_t>(bv)];
+  if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= d.buffers.size() ||
+      uint64_t(v.byteOffset) + v.byteLength > d.buffers[static_cast<size_t>(v.buffer)].size())
+    throw GltfError(where + ": KHR_draco_mesh_compression bufferView " + std::to_string(bv) + " runs past its buffer");
+  std::vector<DracoAttributeRequest> req;
+  for (const auto& [name, acc] : tp.attributes) {
+    if (!ext.contains("attributes") || !ext["attributes"].contains(name))
+      throw GltfError(where + ": attribute " + name + " is not in the Draco data (uncompressed attributes beside Draco are not supported)");
+    if (acc < 0 || static_cast<size_t>(acc) >= m.accessors.size())
+      throw GltfError(where + ": attribute " + name + " names accessor " + std::to_string(acc) + " out of range");
+    const tinygltf::Accessor& a = m.accessors[static_cast<size_t>(acc)];
+    req.push_back({name, ext["attributes"][name].get<int>(), a.componentType,
+                   tinygltf::GetNumComponentsInType(static_cast<uint32_t>(a.type)), a.normalized, acc});
+  }
+  DracoDecoded dd = draco_decode(d.buffers[static_cast<size_t>(v.buffer)].data() + v.byteOffset, v.byteLength, req, where);
+  for (auto& a : dd.attributes) {
+    const tinygltf::Accessor& acc = m.accessors[static_cast<size_t>(a.second.accessor)];
+    a.second.had_min_max = !acc.minValues.empty() && !acc.maxValues.empty();
+    if (acc.count != dd.num_points)
+      throw GltfError(where + ": accessor " + std::to_string(a.second.accessor) + " (" + a.first + ") count " +
+                      std::to_string(acc.count) + " differs from the Draco data's " + std::to_string(dd.num_points) + " points");
+  }
+  P.attributes = std::move(dd.attributes);
+  P.vertex_count = dd.num_points;
+  P.position_quantization = dd.position_quantization;
+  const int ind = pj.value("indices", -1);
+  if (ind >= 0 && static_cast<size_t>(ind) < m.accessors.size() && m.accessors[static_cast<size_t>(ind)].count != dd.faces.size())
+    throw GltfError(where + ": indices accessor count " + std::to_string(m.accessors[static_cast<size_t>(ind)].count) +
+                    " differs from the Draco data's " + std::to_string(dd.faces.size()) + " corners");
+  if (P.mode != 4) throw GltfError(where + ": Draco data with mode " + std::to_string(P.mode) + " (expected TRIANGLES)");
+  if (!tp.targets.empty()) throw GltfError(where + ": morph targets with Draco compression are not supported");
+  return std::move(dd.faces);
+}
+
+/// decode_primitive's accessor branch: the attributes (in the JSON's order), morph targets and
+/// vertex count of P from its accessors; returns the corner indices (0, 1, ... without an indices
+/// accessor). Throws GltfError naming `where` on counts that disagree or indices of a bad type.
+std::vector<uint32_t> read_primitive_accessors(const tinygltf::Model& m, Document& d, Primitive& P, const ojson& pj,
+                                               const tinygltf::Primitive& tp, const std::string& where) {
+  // Attributes in the JSON's order (tinygltf's map is sorted).
+  for (const auto& it : pj["attributes"].items())
+    P.attributes.emplace_back(it.key(), read_accessor(m, d, it.value().get<int>(), it.key() + " of mesh " + std::to_string(P.mesh) +
+                                                                                    " primitive " + std::to_string(P.prim)));
+  if (pj.contains("targets"))
+    for (const auto& t : pj["targets"]) {
+      AttributeList tl;
+      for (const auto& it : t.items())
+        tl.emplace_back(it.key(), read_accessor(m, d, it.value().get<int>(), "morph target " + it.key()));
+      P.targets.push_back(std::move(tl));
+    }
+  P.vertex_count = P.attributes.empty() ? 0 : P.attributes.front().second.count;
+  for (const auto& a : P.attributes)
+    if (a.second.count != P.vertex_count)
+      throw GltfError(where + ": attribute " + a.first + " has " + std::to_string(a.second.count) + " elements, " +
+                      P.attributes.front().first + " has " + std::to_string(P.vertex_count));
+  for (const auto& tl : P.targets)
+    for (const auto& a : tl)
+      if (a.second.count != P.vertex_count) throw GltfError(where + ": morph target " + a.first + " count differs from the vertex count");
+  std::vector<uint32_t> idx;
+  if (tp.indices >= 0) {
+    const RawAttribute ia = read_accessor(m, d, tp.indices, "indices of mesh " + std::to_string(P.mesh) + " primitive " + std::to_string(P.prim));
+    if (ia.components != 1 || (ia.component_type != kUByte && ia.component_type != kUShort && ia.component_type != kUInt))
+      throw GltfError(where + ": indices accessor " + std::to_string(tp.indices) + " is not SCALAR unsigned byte/short/int");
+    idx.resize(ia.count);
+    for (size_t i = 0; i < ia.count; ++i) idx[i] = static_cast<uint32_t>(ia.value(i, 0));
+  } else {
+    idx.resize(P.vertex_count);
+    for (size_t i = 0; i < idx.size(); ++i) idx[i] = static_cast<uint32_t>(i);
+  }
+  return idx;
+}
+
 /// Reads the data of one triangle primitive (accessors or Draco).
 void decode_primitive(const tinygltf::Model& m, Document& d, Primitive& P, const ojson& pj) {
   const std::string where = prim_name(d, P.mesh, P.prim);
@@ -434,76 +516,9 @@ void decode_primitive(const tinygltf::Model& m, Document& d, Primitive& P, const
       !pj.contains("attributes") || !pj["attributes"].is_object())
     throw GltfError(where + ": no \"attributes\" object (required)");
   const tinygltf::Primitive& tp = m.meshes[static_cast<size_t>(P.mesh)].primitives[static_cast<size_t>(P.prim)];
-  std::vector<uint32_t> idx;
-  if (pj.contains("extensions") && pj["extensions"].contains("KHR_draco_mesh_compression")) {
-    P.draco = true;
-    const ojson& ext = pj["extensions"]["KHR_draco_mesh_compression"];
-    const int bv = ext.value("bufferView", -1);
-    if (bv < 0 || static_cast<size_t>(bv) >= m.bufferViews.size())
-      throw GltfError(where + ": KHR_draco_mesh_compression bufferView " + std::to_string(bv) + " out of range");
-    const tinygltf::BufferView& v = m.bufferViews[static_cast<size_t>(bv)];
-    if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= d.buffers.size() ||
-        uint64_t(v.byteOffset) + v.byteLength > d.buffers[static_cast<size_t>(v.buffer)].size())
-      throw GltfError(where + ": KHR_draco_mesh_compression bufferView " + std::to_string(bv) + " runs past its buffer");
-    std::vector<DracoAttributeRequest> req;
-    for (const auto& [name, acc] : tp.attributes) {
-      if (!ext.contains("attributes") || !ext["attributes"].contains(name))
-        throw GltfError(where + ": attribute " + name + " is not in the Draco data (uncompressed attributes beside Draco are not supported)");
-      if (acc < 0 || static_cast<size_t>(acc) >= m.accessors.size())
-        throw GltfError(where + ": attribute " + name + " names accessor " + std::to_string(acc) + " out of range");
-      const tinygltf::Accessor& a = m.accessors[static_cast<size_t>(acc)];
-      req.push_back({name, ext["attributes"][name].get<int>(), a.componentType,
-                     tinygltf::GetNumComponentsInType(static_cast<uint32_t>(a.type)), a.normalized, acc});
-    }
-    DracoDecoded dd = draco_decode(d.buffers[static_cast<size_t>(v.buffer)].data() + v.byteOffset, v.byteLength, req, where);
-    for (auto& a : dd.attributes) {
-      const tinygltf::Accessor& acc = m.accessors[static_cast<size_t>(a.second.accessor)];
-      a.second.had_min_max = !acc.minValues.empty() && !acc.maxValues.empty();
-      if (acc.count != dd.num_points)
-        throw GltfError(where + ": accessor " + std::to_string(a.second.accessor) + " (" + a.first + ") count " +
-                        std::to_string(acc.count) + " differs from the Draco data's " + std::to_string(dd.num_points) + " points");
-    }
-    P.attributes = std::move(dd.attributes);
-    P.vertex_count = dd.num_points;
-    P.position_quantization = dd.position_quantization;
-    const int ind = pj.value("indices", -1);
-    if (ind >= 0 && static_cast<size_t>(ind) < m.accessors.size() && m.accessors[static_cast<size_t>(ind)].count != dd.faces.size())
-      throw GltfError(where + ": indices accessor count " + std::to_string(m.accessors[static_cast<size_t>(ind)].count) +
-                      " differs from the Draco data's " + std::to_string(dd.faces.size()) + " corners");
-    if (P.mode != 4) throw GltfError(where + ": Draco data with mode " + std::to_string(P.mode) + " (expected TRIANGLES)");
-    idx = std::move(dd.faces);
-    if (!tp.targets.empty()) throw GltfError(where + ": morph targets with Draco compression are not supported");
-  } else {
-    // Attributes in the JSON's order (tinygltf's map is sorted).
-    for (const auto& it : pj["attributes"].items())
-      P.attributes.emplace_back(it.key(), read_accessor(m, d, it.value().get<int>(), it.key() + " of mesh " + std::to_string(P.mesh) +
-                                                                                      " primitive " + std::to_string(P.prim)));
-    if (pj.contains("targets"))
-      for (const auto& t : pj["targets"]) {
-        AttributeList tl;
-        for (const auto& it : t.items())
-          tl.emplace_back(it.key(), read_accessor(m, d, it.value().get<int>(), "morph target " + it.key()));
-        P.targets.push_back(std::move(tl));
-      }
-    P.vertex_count = P.attributes.empty() ? 0 : P.attributes.front().second.count;
-    for (const auto& a : P.attributes)
-      if (a.second.count != P.vertex_count)
-        throw GltfError(where + ": attribute " + a.first + " has " + std::to_string(a.second.count) + " elements, " +
-                        P.attributes.front().first + " has " + std::to_string(P.vertex_count));
-    for (const auto& tl : P.targets)
-      for (const auto& a : tl)
-        if (a.second.count != P.vertex_count) throw GltfError(where + ": morph target " + a.first + " count differs from the vertex count");
-    if (tp.indices >= 0) {
-      const RawAttribute ia = read_accessor(m, d, tp.indices, "indices of mesh " + std::to_string(P.mesh) + " primitive " + std::to_string(P.prim));
-      if (ia.components != 1 || (ia.component_type != kUByte && ia.component_type != kUShort && ia.component_type != kUInt))
-        throw GltfError(where + ": indices accessor " + std::to_string(tp.indices) + " is not SCALAR unsigned byte/short/int");
-      idx.resize(ia.count);
-      for (size_t i = 0; i < ia.count; ++i) idx[i] = static_cast<uint32_t>(ia.value(i, 0));
-    } else {
-      idx.resize(P.vertex_count);
-      for (size_t i = 0; i < idx.size(); ++i) idx[i] = static_cast<uint32_t>(i);
-    }
-  }
+  const std::vector<uint32_t> idx = pj.contains("extensions") && pj["extensions"].contains("KHR_draco_mesh_compression")
+                                        ? decode_draco_primitive(m, d, P, pj, tp, where)
+                                        : read_primitive_accessors(m, d, P, pj, tp, where);
   for (size_t i = 0; i < idx.size(); ++i)
     if (idx[i] >= P.vertex_count)
       throw GltfError(where + ": index " + std::to_string(idx[i]) + " at position " + std::to_string(i) + " out of range (" +
@@ -759,14 +774,123 @@ GltfModel read_gltf(const std::string& path, const GltfReadOptions& options) {
 
 namespace {
 
+/// What read_inputs keeps across documents: pages by image key, mesh materials by (file, glTF
+/// material), and the primitive counts of GltfModel::stats.
+struct ReadState {
+  std::map<std::string, int> page_of_key;
+  std::map<std::pair<int, int>, int> material_of;  // (file, glTF material) -> mesh material
+  size_t draco_prims = 0, skipped_prims = 0, triangle_prims = 0, ktx2_replaced = 0;
+};
+
+/// The JSON of P's material (nullptr without one); sets P.texture and P.texcoord_set from its
+/// baseColorTexture. Throws GltfError naming `where` for a material out of range or a
+/// KHR_texture_transform on the base colour.
+const ojson* primitive_material(Document& d, Primitive& P, const std::string& where) {
+  if (P.material < 0) return nullptr;
+  if (!d.json.contains("materials") || static_cast<size_t>(P.material) >= d.json["materials"].size())
+    throw GltfError(where + ": material " + std::to_string(P.material) + " out of range");
+  const ojson* mat = &d.json["materials"][static_cast<size_t>(P.material)];
+  const ojson* pbr = mat->contains("pbrMetallicRoughness") ? &(*mat)["pbrMetallicRoughness"] : nullptr;
+  if (pbr && pbr->contains("baseColorTexture")) {
+    const ojson& bct = (*pbr)["baseColorTexture"];
+    P.texture = bct.value("index", -1);
+    P.texcoord_set = bct.value("texCoord", 0);
+    if (bct.contains("extensions") && bct["extensions"].contains("KHR_texture_transform"))
+      throw GltfError(where + ": material " + std::to_string(P.material) + " baseColorTexture uses KHR_texture_transform (not supported)");
+  }
+  return mat;
+}
+
+/// The page of textured primitive P (its material's JSON `mat`): the page of its image, added to
+/// model (page and GltfPageSource) the first time an image key is seen.
+int primitive_page(GltfModel& model, const Document& d, const tinygltf::Model& m, const Primitive& P, const ojson& mat,
+                   const std::string& where, ReadState& st) {
+  ImageRef ref = texture_image(d, m, P.texture, where);
+  auto it = st.page_of_key.find(ref.key);
+  if (it == st.page_of_key.end()) {
+    Page pg;
+    pg.material = mat.value("name", "material_" + std::to_string(P.material));
+    pg.image_path = ref.src.image_file.empty() ? ref.src.label : ref.src.image_file;
+    st.ktx2_replaced += !ref.src.replaces_ktx2.empty();
+    it = st.page_of_key.emplace(ref.key, static_cast<int>(model.mesh.pages.size())).first;
+    model.mesh.pages.push_back(pg);
+    model.page_source.push_back(ref.src);
+  }
+  return it->second;
+}
+
+/// The mesh material of P (glTF material P.material of file `fi`, JSON `mat`), added to
+/// model.mesh.materials the first time; kNoIndex without a material.
+int primitive_mesh_material(GltfModel& model, size_t fi, const Primitive& P, const ojson* mat, ReadState& st) {
+  if (P.material < 0) return kNoIndex;
+  auto mit = st.material_of.find({static_cast<int>(fi), P.material});
+  if (mit == st.material_of.end()) {
+    Material mm;
+    mm.name = mat->value("name", "material_" + std::to_string(P.material));
+    mit = st.material_of.emplace(std::make_pair(static_cast<int>(fi), P.material), static_cast<int>(model.mesh.materials.size())).first;
+    model.mesh.materials.push_back(mm);
+  }
+  return mit->second;
+}
+
+/// Reads primitive `pi` of mesh `mi` of document `d` (file `fi`, JSON `pj`) into `model`: a
+/// triangle primitive's faces (positions through `stretch`), page and material; a point or line
+/// primitive is counted and left to the writer untouched (an error when textured).
+void read_primitive(GltfModel& model, Document& d, const tinygltf::Model& m, size_t fi, size_t mi, size_t pi,
+                    const ojson& pj, const Mat3& stretch, ReadState& st) {
+  Primitive P;
+  P.mesh = static_cast<int>(mi);
+  P.prim = static_cast<int>(pi);
+  P.mode = pj.value("mode", 4);
+  P.material = pj.value("material", -1);
+  const std::string where = prim_name(d, P.mesh, P.prim);
+  const ojson* mat = primitive_material(d, P, where);
+  if (P.mode < 0 || P.mode > 6) throw GltfError(where + ": unknown primitive mode " + std::to_string(P.mode));
+  if (P.mode < 4) {
+    static const char* kModes[] = {"POINTS", "LINES", "LINE_LOOP", "LINE_STRIP"};
+    if (P.texture >= 0)
+      throw GltfError(where + ": mode " + kModes[P.mode] + " with a textured material (material " + std::to_string(P.material) +
+                      ") is not supported: texdefrag defragments triangle textures only");
+    ++st.skipped_prims;  // kept untouched by the writer
+    return;
+  }
+  if (P.texture >= 0) {
+    const auto others = other_textures_on_set(*mat, P.texcoord_set);
+    if (!others.empty())
+      throw GltfError(where + ": material " + std::to_string(P.material) + " also samples " + others.front() + " with TEXCOORD_" +
+                      std::to_string(P.texcoord_set) + "; texdefrag rewrites those coordinates for the base colour only (not supported)");
+  }
+  decode_primitive(m, d, P, pj);
+  st.draco_prims += P.draco;
+  ++st.triangle_prims;
+  if (P.texture >= 0) P.page = primitive_page(model, d, m, P, *mat, where, st);
+  const int material = primitive_mesh_material(model, fi, P, mat, st);
+  add_faces(model, static_cast<int>(fi), P, material, stretch);
+  d.primitives.push_back(std::move(P));
+}
+
+/// Sets the size of every page of `model`: from its image file's header, else by decoding the
+/// embedded image.
+void read_page_sizes(GltfModel& model) {
+  for (size_t p = 0; p < model.mesh.pages.size(); ++p) {
+    Page& pg = model.mesh.pages[p];
+    const GltfPageSource& s = model.page_source[p];
+    if (!s.image_file.empty()) {
+      read_image_size(s.image_file, pg.width, pg.height);
+    } else {
+      const Image img = read_gltf_page(model, static_cast<int>(p));
+      pg.width = img.width;
+      pg.height = img.height;
+    }
+  }
+}
+
 /// read_gltf's body; `current` is the input being read.
 GltfModel read_inputs(const std::vector<GltfInput>& inputs, const GltfReadOptions& options, size_t& current) {
   GltfModel model;
   auto docs = std::make_shared<std::vector<Document>>();
   model.documents = docs;
-  std::map<std::string, int> page_of_key;
-  std::map<std::pair<int, int>, int> material_of;  // (file, glTF material) -> mesh material
-  size_t draco_prims = 0, skipped_prims = 0, triangle_prims = 0, ktx2_replaced = 0;
+  ReadState st;
   for (size_t fi = 0; fi < inputs.size(); ++fi) {
     current = fi;
     auto [doc, m] = load_document(inputs[fi]);
@@ -779,93 +903,15 @@ GltfModel read_inputs(const std::vector<GltfInput>& inputs, const GltfReadOption
     const ojson& meshes = d.json.contains("meshes") ? d.json["meshes"] : ojson::array();
     for (size_t mi = 0; mi < meshes.size(); ++mi) {
       const ojson& prims = meshes[mi].value("primitives", ojson::array());
-      for (size_t pi = 0; pi < prims.size(); ++pi) {
-        const ojson& pj = prims[pi];
-        Primitive P;
-        P.mesh = static_cast<int>(mi);
-        P.prim = static_cast<int>(pi);
-        P.mode = pj.value("mode", 4);
-        P.material = pj.value("material", -1);
-        const std::string where = prim_name(d, P.mesh, P.prim);
-        const ojson* mat = nullptr;
-        if (P.material >= 0) {
-          if (!d.json.contains("materials") || static_cast<size_t>(P.material) >= d.json["materials"].size())
-            throw GltfError(where + ": material " + std::to_string(P.material) + " out of range");
-          mat = &d.json["materials"][static_cast<size_t>(P.material)];
-          const ojson* pbr = mat->contains("pbrMetallicRoughness") ? &(*mat)["pbrMetallicRoughness"] : nullptr;
-          if (pbr && pbr->contains("baseColorTexture")) {
-            const ojson& bct = (*pbr)["baseColorTexture"];
-            P.texture = bct.value("index", -1);
-            P.texcoord_set = bct.value("texCoord", 0);
-            if (bct.contains("extensions") && bct["extensions"].contains("KHR_texture_transform"))
-              throw GltfError(where + ": material " + std::to_string(P.material) + " baseColorTexture uses KHR_texture_transform (not supported)");
-          }
-        }
-        if (P.mode < 0 || P.mode > 6) throw GltfError(where + ": unknown primitive mode " + std::to_string(P.mode));
-        if (P.mode < 4) {
-          static const char* kModes[] = {"POINTS", "LINES", "LINE_LOOP", "LINE_STRIP"};
-          if (P.texture >= 0)
-            throw GltfError(where + ": mode " + kModes[P.mode] + " with a textured material (material " + std::to_string(P.material) +
-                            ") is not supported: texdefrag defragments triangle textures only");
-          ++skipped_prims;  // kept untouched by the writer
-          continue;
-        }
-        if (P.texture >= 0) {
-          const auto others = other_textures_on_set(*mat, P.texcoord_set);
-          if (!others.empty())
-            throw GltfError(where + ": material " + std::to_string(P.material) + " also samples " + others.front() + " with TEXCOORD_" +
-                            std::to_string(P.texcoord_set) + "; texdefrag rewrites those coordinates for the base colour only (not supported)");
-        }
-        decode_primitive(m, d, P, pj);
-        draco_prims += P.draco;
-        ++triangle_prims;
-        if (P.texture >= 0) {
-          ImageRef ref = texture_image(d, m, P.texture, where);
-          auto it = page_of_key.find(ref.key);
-          if (it == page_of_key.end()) {
-            Page pg;
-            pg.material = mat->value("name", "material_" + std::to_string(P.material));
-            pg.image_path = ref.src.image_file.empty() ? ref.src.label : ref.src.image_file;
-            ktx2_replaced += !ref.src.replaces_ktx2.empty();
-            it = page_of_key.emplace(ref.key, static_cast<int>(model.mesh.pages.size())).first;
-            model.mesh.pages.push_back(pg);
-            model.page_source.push_back(ref.src);
-          }
-          P.page = it->second;
-        }
-        int material = kNoIndex;
-        if (P.material >= 0) {
-          auto mit = material_of.find({static_cast<int>(fi), P.material});
-          if (mit == material_of.end()) {
-            Material mm;
-            mm.name = mat->value("name", "material_" + std::to_string(P.material));
-            mit = material_of.emplace(std::make_pair(static_cast<int>(fi), P.material), static_cast<int>(model.mesh.materials.size())).first;
-            model.mesh.materials.push_back(mm);
-          }
-          material = mit->second;
-        }
-        add_faces(model, static_cast<int>(fi), P, material, stretches[mi]);
-        d.primitives.push_back(std::move(P));
-      }
+      for (size_t pi = 0; pi < prims.size(); ++pi) read_primitive(model, d, m, fi, mi, pi, prims[pi], stretches[mi], st);
     }
   }
-  if (options.read_page_sizes)
-    for (size_t p = 0; p < model.mesh.pages.size(); ++p) {
-      Page& pg = model.mesh.pages[p];
-      const GltfPageSource& s = model.page_source[p];
-      if (!s.image_file.empty()) {
-        read_image_size(s.image_file, pg.width, pg.height);
-      } else {
-        const Image img = read_gltf_page(model, static_cast<int>(p));
-        pg.width = img.width;
-        pg.height = img.height;
-      }
-    }
+  if (options.read_page_sizes) read_page_sizes(model);
   model.stats = {{"files", inputs.size()},
-                 {"triangle_primitives", triangle_prims},
-                 {"draco_primitives", draco_prims},
-                 {"untouched_point_line_primitives", skipped_prims},
-                 {"ktx2_pages_read_from_jpeg_png", ktx2_replaced},
+                 {"triangle_primitives", st.triangle_prims},
+                 {"draco_primitives", st.draco_prims},
+                 {"untouched_point_line_primitives", st.skipped_prims},
+                 {"ktx2_pages_read_from_jpeg_png", st.ktx2_replaced},
                  {"positions_stretched", model.positions_stretched},
                  {"faces", model.mesh.faces.size()},
                  {"pages", model.mesh.pages.size()}};

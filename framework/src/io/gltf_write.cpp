@@ -476,6 +476,29 @@ void DocumentWriter::collect_garbage_textures() {
   if (j_["textures"].empty()) j_.erase("textures");
 }
 
+/// Renumbers every buffer view reference of glTF JSON `j` we know (accessors and their sparse
+/// parts, images, KHR_draco_mesh_compression) through remap (old view -> new view).
+void remap_view_references(ojson& j, const std::vector<int>& remap) {
+  auto fix = [&](ojson& o, const char* key) {
+    if (o.contains(key)) o[key] = remap.at(o[key].get<size_t>());
+  };
+  if (j.contains("accessors"))
+    for (auto& a : j["accessors"]) {
+      fix(a, "bufferView");
+      if (a.contains("sparse")) {
+        fix(a["sparse"]["indices"], "bufferView");
+        fix(a["sparse"]["values"], "bufferView");
+      }
+    }
+  if (j.contains("images"))
+    for (auto& i : j["images"]) fix(i, "bufferView");
+  if (j.contains("meshes"))
+    for (auto& m : j["meshes"])
+      for (auto& p : m["primitives"])
+        if (p.contains("extensions") && p["extensions"].contains("KHR_draco_mesh_compression"))
+          fix(p["extensions"]["KHR_draco_mesh_compression"], "bufferView");
+}
+
 /// Lays out every kept and new buffer view again, 4-byte aligned; returns bytes of unused views kept.
 size_t DocumentWriter::rebuild_buffers() {
   if (!j_.contains("bufferViews")) j_["bufferViews"] = ojson::array();
@@ -537,24 +560,7 @@ size_t DocumentWriter::rebuild_buffers() {
   }
   j_["bufferViews"] = kept;
   if (kept.empty()) j_.erase("bufferViews");
-  auto fix = [&](ojson& o, const char* key) {
-    if (o.contains(key)) o[key] = remap.at(o[key].get<size_t>());
-  };
-  if (j_.contains("accessors"))
-    for (auto& a : j_["accessors"]) {
-      fix(a, "bufferView");
-      if (a.contains("sparse")) {
-        fix(a["sparse"]["indices"], "bufferView");
-        fix(a["sparse"]["values"], "bufferView");
-      }
-    }
-  if (j_.contains("images"))
-    for (auto& i : j_["images"]) fix(i, "bufferView");
-  if (j_.contains("meshes"))
-    for (auto& m : j_["meshes"])
-      for (auto& p : m["primitives"])
-        if (p.contains("extensions") && p["extensions"].contains("KHR_draco_mesh_compression"))
-          fix(p["extensions"]["KHR_draco_mesh_compression"], "bufferView");
+  remap_view_references(j_, remap);
   for (size_t b = 0; b < data.size(); ++b) {
     while (data[b].size() % 4) data[b].push_back(0);
     j_["buffers"][b]["byteLength"] = data[b].size();

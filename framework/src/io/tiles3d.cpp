@@ -345,6 +345,102 @@ std::vector<size_t> selected_models(const TilesetPlan& plan, const std::vector<s
   return out;
 }
 
+/// The inputs of one model of a tileset: a GltfInput per content (a b3dm's GLB taken out of it),
+/// each with the measure_linear of its content in `linear_of` (when listed).
+struct ModelInputs {
+  std::vector<GltfInput> group;
+  std::vector<B3dm> b3dms;            // per content: its b3dm (empty for glTF/GLB)
+  std::vector<const B3dm*> b3dm_of;  // per content: into b3dms, or null for glTF/GLB
+};
+
+/// Reads the b3dm contents of `model` (names relative to `root`) and lists every content's input.
+/// Throws naming the content and its tileset when a b3dm is malformed.
+ModelInputs model_inputs(const TilesetModel& model, const fs::path& root, const std::map<std::string, Mat3>& linear_of) {
+  const std::vector<std::string>& names = model.contents;
+  ModelInputs in;
+  in.b3dms.resize(names.size());
+  for (size_t i = 0; i < names.size(); ++i) {
+    const std::string path = (root / names[i]).string();
+    if (lower_ext(path) == "b3dm") {
+      in.b3dms[i] = parse_b3dm(read_bytes(path), path + " (content of " + model.parent + ")");
+      in.group.push_back({path, in.b3dms[i].glb, fs::path(path).parent_path().string()});
+      in.b3dm_of.push_back(&in.b3dms[i]);
+    } else {
+      in.group.push_back({path, {}, ""});
+      in.b3dm_of.push_back(nullptr);
+    }
+    const auto lin = linear_of.find(names[i]);
+    if (lin != linear_of.end()) in.group.back().outer_linear = lin->second;
+  }
+  return in;
+}
+
+/// RunOptions::write for one model of a tileset: builds its documents with `format`, writes each
+/// content `names[i]` (wrapped again in its b3dm tables when b3dm_of[i]) and the shared files into
+/// `files`, and adds to `still_used` the extensions a written document still names.
+WriteResult write_model_contents(const GltfFormat& format, const LoadedModel& lm, const TexturedMesh& out,
+                                 const std::vector<Image>& pages, const PageWriteOptions& po,
+                                 const std::vector<std::string>& names, const std::vector<const B3dm*>& b3dm_of,
+                                 OutputSet& files, std::set<std::string>& still_used) {
+  const GltfOutput go = format.build(lm, out, pages, names, po);
+  WriteResult wr;
+  for (size_t i = 0; i < names.size(); ++i) {
+    const std::string& doc = go.documents[i];
+    for (const char* e : {"KHR_texture_basisu", "KHR_draco_mesh_compression"})
+      if (doc.find(e) != std::string::npos) still_used.insert(e);
+    if (b3dm_of[i]) {
+      B3dm nb = *b3dm_of[i];
+      nb.glb.assign(doc.begin(), doc.end());
+      files.write_file(names[i], write_b3dm(nb));
+    } else {
+      files.write_file(names[i], doc);
+    }
+    wr.files.push_back(files.final_path(names[i]));
+  }
+  for (const auto& f : go.files) {
+    files.write_file(f.path, f.bytes);
+    wr.files.push_back(files.final_path(f.path));
+  }
+  wr.main_file = wr.files.front();
+  wr.page_bytes = go.report.value("page_bytes", size_t{0});
+  wr.report = go.report;
+  return wr;
+}
+
+/// The summary line of one model (contents `names`, run report `report` written as report_name)
+/// in `<tileset stem>.summary.json`; pin, pout: its page bytes in and out.
+nlohmann::json model_summary(const std::vector<std::string>& names, const std::string& report_name,
+                             const nlohmann::json& report, size_t pin, size_t pout) {
+  nlohmann::json m = {{"contents", names},
+                      {"report", report_name},
+                      {"faces", report["input_stats"]["faces"]},
+                      {"charts_in", report["input_stats"]["charts"]["charts"]},
+                      {"charts_out", report["output_stats"]["charts"]},
+                      {"megapixels_in", report["input_stats"]["megapixels"]},
+                      {"megapixels_out", report["output_stats"]["megapixels"]},
+                      {"page_bytes_in", pin},
+                      {"page_bytes_out", pout},
+                      {"time_s", report["total_time_s"]}};
+  if (report.contains("warnings")) m["warnings"] = report["warnings"];
+  return m;
+}
+
+/// A whole run's last files: the contents copied unchanged, every tileset JSON (naming no more the
+/// extensions no written document uses, i.e. those not in still_used) and the summary.
+void write_tileset_files(const TilesetPlan& plan, const fs::path& root, const std::string& tileset,
+                         const std::set<std::string>& still_used, nlohmann::json& summary, OutputSet& files) {
+  summary["copied_unchanged"] = plan.copies;
+  for (const std::string& c : plan.copies) {
+    const std::vector<uint8_t> b = read_bytes((root / c).string());
+    files.write_file(c, std::string(b.begin(), b.end()));
+  }
+  std::set<std::string> gone;
+  for (const char* e : {"KHR_texture_basisu", "KHR_draco_mesh_compression"})
+    if (!still_used.count(e)) gone.insert(e);
+  for (const std::string& t : plan.tileset.tilesets) files.write_file(rel_name(t, root), output_tileset_json(t, gone));
+  files.write_file(fs::path(tileset).stem().string() + ".summary.json", summary.dump(2) + "\n");
+}
+
 }  // namespace
 
 nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions& options) {
@@ -367,56 +463,19 @@ nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions
   for (size_t k = 0; k < models.size(); ++k) {
     const TilesetModel& model = plan.models[models[k]];
     const std::vector<std::string>& names = model.contents;
-    std::vector<GltfInput> group;
-    std::vector<const B3dm*> b3dm_of;  // per content: its b3dm tables, or null for glTF/GLB
-    std::vector<B3dm> b3dms(names.size());
-    for (size_t i = 0; i < names.size(); ++i) {
-      const std::string path = (root / names[i]).string();
-      if (lower_ext(path) == "b3dm") {
-        b3dms[i] = parse_b3dm(read_bytes(path), path + " (content of " + model.parent + ")");
-        group.push_back({path, b3dms[i].glb, fs::path(path).parent_path().string()});
-        b3dm_of.push_back(&b3dms[i]);
-      } else {
-        group.push_back({path, {}, ""});
-        b3dm_of.push_back(nullptr);
-      }
-      const auto lin = linear_of.find(names[i]);
-      if (lin != linear_of.end()) group.back().outer_linear = lin->second;
-    }
+    const ModelInputs inputs = model_inputs(model, root, linear_of);
     if (options.progress) options.progress("tileset " + names.front(), double(k) / double(models.size()));
     RunOptions ro;
-    ro.input = group.front().path;
+    ro.input = inputs.group.front().path;
     ro.output_dir = options.output_dir;
     ro.format = &format;
     try {
-      ro.model = std::make_shared<LoadedModel>(format.read_group(group, root.string()));
+      ro.model = std::make_shared<LoadedModel>(format.read_group(inputs.group, root.string()));
     } catch (const std::exception& e) {
       throw TilesetError(std::string(e.what()) + " (content of " + model.parent + ")");
     }
     ro.write = [&](const LoadedModel& lm, const TexturedMesh& out, const std::vector<Image>& pages, const PageWriteOptions& po) {
-      const GltfOutput go = format.build(lm, out, pages, names, po);
-      WriteResult wr;
-      for (size_t i = 0; i < names.size(); ++i) {
-        const std::string& doc = go.documents[i];
-        for (const char* e : {"KHR_texture_basisu", "KHR_draco_mesh_compression"})
-          if (doc.find(e) != std::string::npos) still_used.insert(e);
-        if (b3dm_of[i]) {
-          B3dm nb = *b3dm_of[i];
-          nb.glb.assign(doc.begin(), doc.end());
-          files.write_file(names[i], write_b3dm(nb));
-        } else {
-          files.write_file(names[i], doc);
-        }
-        wr.files.push_back(files.final_path(names[i]));
-      }
-      for (const auto& f : go.files) {
-        files.write_file(f.path, f.bytes);
-        wr.files.push_back(files.final_path(f.path));
-      }
-      wr.main_file = wr.files.front();
-      wr.page_bytes = go.report.value("page_bytes", size_t{0});
-      wr.report = go.report;
-      return wr;
+      return write_model_contents(format, lm, out, pages, po, names, inputs.b3dm_of, files, still_used);
     };
     nlohmann::json report;
     try {
@@ -431,17 +490,7 @@ nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions
     in_bytes += pin;
     out_bytes += pout;
     faces += report["input_stats"]["faces"].get<size_t>();
-    summary["models"].push_back({{"contents", names},
-                                 {"report", report_name},
-                                 {"faces", report["input_stats"]["faces"]},
-                                 {"charts_in", report["input_stats"]["charts"]["charts"]},
-                                 {"charts_out", report["output_stats"]["charts"]},
-                                 {"megapixels_in", report["input_stats"]["megapixels"]},
-                                 {"megapixels_out", report["output_stats"]["megapixels"]},
-                                 {"page_bytes_in", pin},
-                                 {"page_bytes_out", pout},
-                                 {"time_s", report["total_time_s"]}});
-    if (report.contains("warnings")) summary["models"].back()["warnings"] = report["warnings"];
+    summary["models"].push_back(model_summary(names, report_name, report, pin, pout));
     if (!whole) summary["reports"].push_back(report);
   }
   summary["tilesets"] = ts.tilesets.size();
@@ -449,18 +498,7 @@ nlohmann::json run_tileset(const PipelineConfig& config, const TilesetRunOptions
   summary["faces"] = faces;
   summary["page_bytes_in"] = in_bytes;
   summary["page_bytes_out"] = out_bytes;
-  if (whole) {
-    summary["copied_unchanged"] = plan.copies;
-    for (const std::string& c : plan.copies) {
-      const std::vector<uint8_t> b = read_bytes((root / c).string());
-      files.write_file(c, std::string(b.begin(), b.end()));
-    }
-    std::set<std::string> gone;
-    for (const char* e : {"KHR_texture_basisu", "KHR_draco_mesh_compression"})
-      if (!still_used.count(e)) gone.insert(e);
-    for (const std::string& t : ts.tilesets) files.write_file(rel_name(t, root), output_tileset_json(t, gone));
-    files.write_file(fs::path(options.tileset).stem().string() + ".summary.json", summary.dump(2) + "\n");
-  }
+  if (whole) write_tileset_files(plan, root, options.tileset, still_used, summary, files);
   files.commit();
   return summary;
 }
