@@ -232,17 +232,15 @@ void check_merger_distortion(const std::string& stage, const DistortionSummary& 
   throw StageError(os.str());
 }
 
-TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, const Layout& layout,
-                              const std::string& stem, const std::string& image_ext,
-                              const std::string& output_dir) {
-  TexturedMesh out;
-  out.positions = input.positions;
-  out.colors = input.colors;
-  out.normals = input.normals;
-  out.groups = input.groups;
-  out.materials = input.materials;  // untextured faces keep theirs
-  out.faces = input.faces;
-  const int first_page_material = static_cast<int>(out.materials.size());
+namespace {
+
+// make_output_mesh's steps, in the order it runs them.
+
+/// Appends one material and one Page per layout page to `out` (material "page_<p>", image
+/// `<stem>_page<p>.<image_ext>` in output_dir, the layout page's size); the materials take the
+/// extra MTL lines of the first textured input face's material.
+void add_page_materials(const TexturedMesh& input, const Layout& layout, const std::string& stem,
+                        const std::string& image_ext, const std::string& output_dir, TexturedMesh& out) {
   Material base;
   for (const Face& f : input.faces)
     if (f.page != kNoPage && f.material >= 0) {
@@ -263,7 +261,11 @@ TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, con
     pg.height = layout.pages[p].height;
     out.pages.push_back(pg);
   }
-  // Drop input materials no face uses any more (the textured ones), keeping indices consistent.
+}
+
+/// Drops from out.materials the input materials no face uses any more (those of textured faces);
+/// the page materials (from first_page_material on) stay. Returns old index -> new index (-1: dropped).
+std::vector<int> drop_unused_materials(const TexturedMesh& input, int first_page_material, TexturedMesh& out) {
   std::vector<int> used(out.materials.size(), 0);
   for (size_t f = 0; f < out.faces.size(); ++f)
     if (input.faces[f].page == kNoPage && input.faces[f].material >= 0) used[static_cast<size_t>(input.faces[f].material)] = 1;
@@ -276,7 +278,14 @@ TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, con
       kept.push_back(out.materials[m]);
     }
   out.materials.swap(kept);
+  return remap;
+}
 
+/// Sets every face's page, material (through `remap`) and texture coordinates: textured faces take
+/// their wedges' layout UVs normalised by their page's size (texcoord index = wedge index);
+/// faces without a page keep their input texture coordinates, appended after the wedges.
+void assign_texcoords(const TexturedMesh& input, const Atlas& atlas, const Layout& layout, const std::vector<int>& remap,
+                      int first_page_material, TexturedMesh& out) {
   out.texcoords.resize(atlas.wedge_uv.size());
   std::vector<uint8_t> set(atlas.wedge_uv.size(), 0);
   for (size_t f = 0; f < out.faces.size(); ++f) {
@@ -308,8 +317,11 @@ TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, con
       }
     }
   }
-  // OBJ cannot return to "no material" after a usemtl: faces without a material get an explicit
-  // empty one when any face has a material.
+}
+
+/// OBJ cannot return to "no material" after a usemtl: when some faces of `out` have a material and
+/// some none, the latter get an explicit empty one (appended, "texdefrag_no_material").
+void add_no_material(TexturedMesh& out) {
   bool any_material = false, any_none = false;
   for (const Face& F : out.faces) (F.material >= 0 ? any_material : any_none) = true;
   if (any_material && any_none) {
@@ -319,6 +331,25 @@ TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, con
     for (Face& F : out.faces)
       if (F.material < 0) F.material = static_cast<int>(out.materials.size()) - 1;
   }
+}
+
+}  // namespace
+
+TexturedMesh make_output_mesh(const TexturedMesh& input, const Atlas& atlas, const Layout& layout,
+                              const std::string& stem, const std::string& image_ext,
+                              const std::string& output_dir) {
+  TexturedMesh out;
+  out.positions = input.positions;
+  out.colors = input.colors;
+  out.normals = input.normals;
+  out.groups = input.groups;
+  out.materials = input.materials;  // untextured faces keep theirs
+  out.faces = input.faces;
+  const int first_page_material = static_cast<int>(out.materials.size());
+  add_page_materials(input, layout, stem, image_ext, output_dir, out);
+  const std::vector<int> remap = drop_unused_materials(input, first_page_material, out);
+  assign_texcoords(input, atlas, layout, remap, first_page_material, out);
+  add_no_material(out);
   return out;
 }
 
