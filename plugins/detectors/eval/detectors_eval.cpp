@@ -113,6 +113,56 @@ int wall_roof_regions(const std::vector<int>& region, const std::vector<synth::S
   return mixed;
 }
 
+/// With --stats: prints the regions holding >= 20 faces of each of two or more main planes, and
+/// the main planes (>= 50 faces) split with no part of 90% of their faces. main_truth: per face its
+/// main plane or -1; face_region: the detector's regions.
+void print_plane_mixing(const std::vector<int>& face_region, const std::vector<int>& main_truth,
+                        const synth::SynthTruth& truth) {
+  std::map<int, std::map<int, int>> parts;
+  for (size_t f = 0; f < main_truth.size(); ++f)
+    if (main_truth[f] >= 0) ++parts[face_region[f]][main_truth[f]];
+  for (const auto& [reg, planes] : parts) {
+    std::string line;
+    int big = 0;
+    for (const auto& [pl, cnt] : planes) {
+      if (cnt < 20) continue;
+      ++big;
+      const auto& P = truth.planes[static_cast<size_t>(pl)];
+      char buf[160];
+      std::snprintf(buf, sizeof buf, " plane %d (%s, n %.2f %.2f %.2f, off %.2f): %d", pl, synth::to_string(P.semantic),
+                    P.normal.x(), P.normal.y(), P.normal.z(), P.offset, cnt);
+      line += buf;
+    }
+    if (big >= 2) std::printf("  region %d holds%s\n", reg, line.c_str());
+  }
+  std::map<int, std::map<int, int>> split_of;  // main plane -> region -> faces
+  for (size_t f = 0; f < main_truth.size(); ++f)
+    if (main_truth[f] >= 0) ++split_of[main_truth[f]][face_region[f]];
+  for (const auto& [pl, regs] : split_of) {
+    int all = 0, top = 0;
+    for (const auto& [rg, cnt] : regs) all += cnt, top = std::max(top, cnt);
+    if (all < 50 || top >= 0.9 * all) continue;
+    const auto& P = truth.planes[static_cast<size_t>(pl)];
+    std::printf("  plane %d (%s%s, n %.2f %.2f %.2f) of %d faces split, largest part %d, %zu regions\n", pl,
+                synth::to_string(P.semantic), P.curved ? " curved" : "", P.normal.x(), P.normal.y(), P.normal.z(), all,
+                top, regs.size());
+  }
+}
+
+/// A synthetic model of archetype `arch` (std::invalid_argument when unknown), seed `seed`, about
+/// `faces` faces and `noise` cm of vertex noise, without page images.
+synth::SynthModel synth_model(const std::string& arch, const std::string& seed, size_t faces, double noise) {
+  synth::SynthOptions o;
+  const auto at = synth::parse_archetype(arch);
+  if (!at) throw std::invalid_argument("unknown archetype " + arch);
+  o.archetype = *at;
+  o.seed = std::stoull(seed);
+  o.target_faces = faces;
+  o.noise_cm = noise;
+  o.render_pages = false;
+  return synth::generate(o);
+}
+
 int run_synth(int argc, char** argv) {
   std::vector<std::string> archetypes = {"residential", "factory", "hotel", "lshape", "courtyard"};
   std::vector<std::string> seeds = {"1"};
@@ -140,15 +190,7 @@ int run_synth(int argc, char** argv) {
   for (const std::string& arch : archetypes) {
     std::vector<Row> per(configs.size());
     for (const std::string& seed : seeds) {
-      synth::SynthOptions o;
-      const auto at = synth::parse_archetype(arch);
-      if (!at) throw std::invalid_argument("unknown archetype " + arch);
-      o.archetype = *at;
-      o.seed = std::stoull(seed);
-      o.target_faces = faces;
-      o.noise_cm = noise;
-      o.render_pages = false;
-      const synth::SynthModel m = synth::generate(o);
+      const synth::SynthModel m = synth_model(arch, seed, faces, noise);
       // "main": faces of detail planes (window reveals, chimneys, slabs) are not counted.
       std::vector<int> main_truth = m.truth.face_plane;
       for (size_t f = 0; f < main_truth.size(); ++f)
@@ -165,37 +207,7 @@ int run_synth(int argc, char** argv) {
         r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const auto s = detectors::score_segmentation(d.regions.face_region, m.truth.face_plane);
         r.accuracy = s.accuracy, r.regions = s.regions, r.truth = s.truth_planes, r.over = s.over_segmented;
-        if (stats) {  // regions holding >= 20 faces of each of two or more main planes
-          std::map<int, std::map<int, int>> parts;
-          for (size_t f = 0; f < main_truth.size(); ++f)
-            if (main_truth[f] >= 0) ++parts[d.regions.face_region[f]][main_truth[f]];
-          for (const auto& [reg, planes] : parts) {
-            std::string line;
-            int big = 0;
-            for (const auto& [pl, cnt] : planes) {
-              if (cnt < 20) continue;
-              ++big;
-              const auto& P = m.truth.planes[static_cast<size_t>(pl)];
-              char buf[160];
-              std::snprintf(buf, sizeof buf, " plane %d (%s, n %.2f %.2f %.2f, off %.2f): %d", pl, synth::to_string(P.semantic),
-                            P.normal.x(), P.normal.y(), P.normal.z(), P.offset, cnt);
-              line += buf;
-            }
-            if (big >= 2) std::printf("  region %d holds%s\n", reg, line.c_str());
-          }
-          std::map<int, std::map<int, int>> split_of;  // main plane -> region -> faces
-          for (size_t f = 0; f < main_truth.size(); ++f)
-            if (main_truth[f] >= 0) ++split_of[main_truth[f]][d.regions.face_region[f]];
-          for (const auto& [pl, regs] : split_of) {
-            int all = 0, top = 0;
-            for (const auto& [rg, cnt] : regs) all += cnt, top = std::max(top, cnt);
-            if (all < 50 || top >= 0.9 * all) continue;
-            const auto& P = m.truth.planes[static_cast<size_t>(pl)];
-            std::printf("  plane %d (%s%s, n %.2f %.2f %.2f) of %d faces split, largest part %d, %zu regions\n", pl,
-                        synth::to_string(P.semantic), P.curved ? " curved" : "", P.normal.x(), P.normal.y(), P.normal.z(), all,
-                        top, regs.size());
-          }
-        }
+        if (stats) print_plane_mixing(d.regions.face_region, main_truth, m.truth);
         r.main_accuracy = detectors::score_segmentation(d.regions.face_region, main_truth).accuracy;
         r.under = s.under_segmented, r.mixed = wall_roof_regions(d.regions.face_region, m.truth.face_class, stats);
         r.print(arch + "_" + seed + " " + std::to_string(m.mesh.faces.size()), configs[k].label);

@@ -553,6 +553,29 @@ void absorb_small(const Units& U, const Params& p, std::vector<int>& region, int
   rep["jagged_faces_moved"] = moved_faces;
 }
 
+/// absorb_enclosed's step (b): the cluster of small regions around region r of `rs` (n regions):
+/// r, then by flooding over neighbours that are not `largest`, not touched and each below `cap`
+/// faces. Empty when the cluster reaches `cap` faces together (r alone included).
+std::vector<int> enclosed_cluster(const RegionSet& rs, const std::vector<uint8_t>& touched, int n, int r, int largest,
+                                  double cap) {
+  std::vector<int> members{r};
+  std::vector<uint8_t> seen(static_cast<size_t>(n), 0);
+  seen[static_cast<size_t>(r)] = 1;
+  double faces = rs.m[static_cast<size_t>(r)].faces;
+  if (!(faces < cap)) return {};
+  for (size_t k = 0; k < members.size(); ++k)
+    for (const auto& [t, l] : rs.nbr[static_cast<size_t>(members[k])]) {
+      if (t == largest || seen[static_cast<size_t>(t)] || touched[static_cast<size_t>(t)] ||
+          !(rs.m[static_cast<size_t>(t)].faces < cap))
+        continue;
+      seen[static_cast<size_t>(t)] = 1;
+      members.push_back(t);
+      faces += rs.m[static_cast<size_t>(t)].faces;
+      if (!(faces < cap)) return {};
+    }
+  return members;
+}
+
 /// Refinement 11 (enclosed regions, our addition for the paper's intent that details end up inside
 /// their facade's region): a region whose border is at least enclosed_border_fraction shared with
 /// one neighbouring region (border = edges shared with other regions plus its open edges) and that
@@ -620,25 +643,8 @@ void absorb_enclosed(const Units& U, const Params& p, std::vector<int>& region, 
       // that are small against it; give up when the cluster outgrows the size limit.
       if (largest < 0 || touched[static_cast<size_t>(largest)] == 1) continue;
       const double cap = p.enclosed_max_fraction * rs.m[static_cast<size_t>(largest)].faces;
-      std::vector<int> members{r};
-      std::vector<uint8_t> seen(static_cast<size_t>(n), 0);
-      seen[static_cast<size_t>(r)] = 1;
-      double faces = rs.m[static_cast<size_t>(r)].faces;
-      bool too_big = !(faces < cap);
-      for (size_t k = 0; k < members.size() && !too_big; ++k)
-        for (const auto& [t, l] : rs.nbr[static_cast<size_t>(members[k])]) {
-          if (t == largest || seen[static_cast<size_t>(t)] || touched[static_cast<size_t>(t)] ||
-              !(rs.m[static_cast<size_t>(t)].faces < cap))
-            continue;
-          seen[static_cast<size_t>(t)] = 1;
-          members.push_back(t);
-          faces += rs.m[static_cast<size_t>(t)].faces;
-          if (!(faces < cap)) {
-            too_big = true;
-            break;
-          }
-        }
-      if (!too_big && members.size() > 1 && try_join(members, largest)) ++groups;
+      const std::vector<int> members = enclosed_cluster(rs, touched, n, r, largest, cap);
+      if (members.size() > 1 && try_join(members, largest)) ++groups;
     }
     if (joins == 0) break;
     ++passes;
@@ -942,6 +948,43 @@ CircleFit fit_circle(const std::vector<int>& faces, const Units& U, const Vec3& 
   return out;
 }
 
+/// group_cylinders' candidates: the pairs (sharpness, a, b), a < b, of adjacent coherent regions of
+/// `rs` with at least coplanar_min_faces faces each whose border is smooth (sharpness = the
+/// length-weighted mean angle between the unit normals `un` facing each other across it, over the
+/// angle between the regions' normals, at most cylinder_border_ratio), smoothest first.
+std::vector<std::tuple<double, int, int>> smooth_border_pairs(const Units& U, const Params& p, const std::vector<int>& region,
+                                                              const RegionSet& rs, const std::vector<Vec3>& un) {
+  const UnitGraph& g = U.g;
+  std::map<std::pair<int, int>, std::pair<double, double>> border;  // (angle * len, len)
+  for (int u = 0; u < g.num_units; ++u)
+    for (int i = g.adj_offset[static_cast<size_t>(u)]; i < g.adj_offset[static_cast<size_t>(u) + 1]; ++i) {
+      const int v = g.adj[static_cast<size_t>(i)];
+      const int a = region[static_cast<size_t>(u)], b = region[static_cast<size_t>(v)];
+      if (a >= b || rs.m[static_cast<size_t>(a)].faces < p.coplanar_min_faces || rs.m[static_cast<size_t>(b)].faces < p.coplanar_min_faces ||
+          !coherent(rs.m[static_cast<size_t>(a)], p) || !coherent(rs.m[static_cast<size_t>(b)], p))
+        continue;
+      const double len = g.adj_length[static_cast<size_t>(i)];
+      auto& e = border[{a, b}];
+      e.first += len * normal_angle(un[static_cast<size_t>(u)], un[static_cast<size_t>(v)]);
+      e.second += len;
+    }
+  // note: on a curved surface cut into pieces the turn is spread over the pieces, so the angle
+  // between the units facing each other across the border is a fraction of the angle between the
+  // pieces' normals; at a crease (wall/roof, facade corner) the whole turn happens at the border.
+  std::vector<std::tuple<double, int, int>> pairs;  // sharpness = border angle / normal angle
+  for (const auto& [k, e] : border) {
+    if (!(e.second > 0)) continue;
+    const size_t a = static_cast<size_t>(k.first), b = static_cast<size_t>(k.second);
+    const double turn = normal_angle(reliable_normal(rs.m[a], rs.fit[a], rs.smooth[a], p),
+                                     reliable_normal(rs.m[b], rs.fit[b], rs.smooth[b], p));
+    if (!(turn > 0)) continue;
+    const double sharpness = e.first / e.second / turn;
+    if (sharpness <= p.cylinder_border_ratio) pairs.emplace_back(sharpness, k.first, k.second);
+  }
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
+}
+
 /// Refinement (curved surfaces, our addition; docs/detectors.md refinement 10): growth cuts a silo
 /// or a curved facade into planar pieces about two angle thresholds wide. Two adjacent regions with
 /// at least coplanar_min_faces faces each join when (a) their border is smooth: the length-weighted
@@ -972,33 +1015,7 @@ void group_cylinders(const Units& U, const Params& p, std::vector<int>& region, 
     area[r] += a;
   }
   // Smooth borders between large regions, smoothest first.
-  std::map<std::pair<int, int>, std::pair<double, double>> border;  // (angle * len, len)
-  for (int u = 0; u < g.num_units; ++u)
-    for (int i = g.adj_offset[static_cast<size_t>(u)]; i < g.adj_offset[static_cast<size_t>(u) + 1]; ++i) {
-      const int v = g.adj[static_cast<size_t>(i)];
-      const int a = region[static_cast<size_t>(u)], b = region[static_cast<size_t>(v)];
-      if (a >= b || rs.m[static_cast<size_t>(a)].faces < p.coplanar_min_faces || rs.m[static_cast<size_t>(b)].faces < p.coplanar_min_faces ||
-          !coherent(rs.m[static_cast<size_t>(a)], p) || !coherent(rs.m[static_cast<size_t>(b)], p))
-        continue;
-      const double len = g.adj_length[static_cast<size_t>(i)];
-      auto& e = border[{a, b}];
-      e.first += len * normal_angle(un[static_cast<size_t>(u)], un[static_cast<size_t>(v)]);
-      e.second += len;
-    }
-  // note: on a curved surface cut into pieces the turn is spread over the pieces, so the angle
-  // between the units facing each other across the border is a fraction of the angle between the
-  // pieces' normals; at a crease (wall/roof, facade corner) the whole turn happens at the border.
-  std::vector<std::tuple<double, int, int>> pairs;  // sharpness = border angle / normal angle
-  for (const auto& [k, e] : border) {
-    if (!(e.second > 0)) continue;
-    const size_t a = static_cast<size_t>(k.first), b = static_cast<size_t>(k.second);
-    const double turn = normal_angle(reliable_normal(rs.m[a], rs.fit[a], rs.smooth[a], p),
-                                     reliable_normal(rs.m[b], rs.fit[b], rs.smooth[b], p));
-    if (!(turn > 0)) continue;
-    const double sharpness = e.first / e.second / turn;
-    if (sharpness <= p.cylinder_border_ratio) pairs.emplace_back(sharpness, k.first, k.second);
-  }
-  std::sort(pairs.begin(), pairs.end());
+  const std::vector<std::tuple<double, int, int>> pairs = smooth_border_pairs(U, p, region, rs, un);
   const double max_axis = std::pow(std::sin(p.cylinder_axis_angle), 2);
   std::vector<PlaneMoments> m = rs.m;
   size_t joins = 0, rej_axis = 0, rej_circle = 0;
