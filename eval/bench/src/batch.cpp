@@ -11,6 +11,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <thread>
@@ -219,34 +220,22 @@ json evaluate_pair(const std::string& input_obj, const std::string& output_obj, 
   return {{"comparison", eval::to_json(c)}, {"eval_time_s", t}, {"peak_rss_bytes", peak_rss_bytes()}};
 }
 
-BenchSummary run_bench(const BenchOptions& o) {
-  if (o.out_dir.empty()) throw BenchError("--out: no results folder given");
-  if (o.jobs < 1) throw BenchError("-j must be at least 1");
-  const std::vector<BenchConfig> configs = expand_configs(o.configs, o.sets, o.sweeps, o.externals);
-  validate_configs(configs);
-  const std::vector<BenchModel> models = discover_models(o.data, o.out_dir);
-  const std::string exe = o.exe.empty() ? self_exe() : o.exe;
-  if (exe.empty() || !fs::is_regular_file(exe)) throw BenchError("cannot find the texdefrag executable ('" + exe + "')");
+namespace {
 
-  std::error_code ec;
-  fs::create_directories(o.out_dir, ec);
-  if (ec) throw BenchError("cannot create " + o.out_dir + ": " + ec.message());
-  const fs::path out = o.out_dir;
-  const fs::path jsonl = out / "results.jsonl";
+/// One (configuration, model) pair of run_bench left to run.
+struct BenchTask {
+  const BenchConfig* config;
+  const BenchModel* model;
+};
 
-  std::map<std::string, std::string> done;  // key -> status
-  for (const json& r : read_records(jsonl.string())) done[record_key(r)] = r.value("status", "");
+using LogFn = std::function<void(const std::string&)>;
 
-  struct Task {
-    const BenchConfig* config;
-    const BenchModel* model;
-  };
-  std::vector<Task> tasks;
-  BenchSummary sum;
-  std::mutex mu;
-  auto log = [&](const std::string& line) {
-    if (o.log) o.log(line);
-  };
+/// The pairs of configs x models (that order) to run: every pair but those `done` records (key ->
+/// status), failed ones too when o.retry_failed. Counts pairs and skipped ones in `sum`.
+std::vector<BenchTask> pending_tasks(const BenchOptions& o, const std::vector<BenchConfig>& configs,
+                                     const std::vector<BenchModel>& models, const std::map<std::string, std::string>& done,
+                                     BenchSummary& sum, const LogFn& log) {
+  std::vector<BenchTask> tasks;
   for (const BenchConfig& c : configs)
     for (const BenchModel& m : models) {
       ++sum.pairs;
@@ -259,7 +248,15 @@ BenchSummary run_bench(const BenchOptions& o) {
       }
       tasks.push_back({&c, &m});
     }
+  return tasks;
+}
 
+/// Runs `tasks` on up to o.jobs threads (run_pair, runs under out/runs), appending each record to
+/// `jsonl` as it finishes (a thrown error becomes a failed record) and counting it in `sum`.
+/// Throws BenchError when jsonl cannot be written.
+void run_tasks(const BenchOptions& o, const std::string& exe, const std::vector<BenchTask>& tasks, const fs::path& out,
+               const fs::path& jsonl, BenchSummary& sum, const LogFn& log) {
+  std::mutex mu;
   std::ofstream append(jsonl, std::ios::app);
   if (!append) throw BenchError("cannot write " + jsonl.string());
   std::atomic<size_t> next{0};
@@ -294,6 +291,34 @@ BenchSummary run_bench(const BenchOptions& o) {
   for (auto& t : threads) t.join();
   append.close();
   if (!append) throw BenchError("error writing " + jsonl.string());
+}
+
+}  // namespace
+
+BenchSummary run_bench(const BenchOptions& o) {
+  if (o.out_dir.empty()) throw BenchError("--out: no results folder given");
+  if (o.jobs < 1) throw BenchError("-j must be at least 1");
+  const std::vector<BenchConfig> configs = expand_configs(o.configs, o.sets, o.sweeps, o.externals);
+  validate_configs(configs);
+  const std::vector<BenchModel> models = discover_models(o.data, o.out_dir);
+  const std::string exe = o.exe.empty() ? self_exe() : o.exe;
+  if (exe.empty() || !fs::is_regular_file(exe)) throw BenchError("cannot find the texdefrag executable ('" + exe + "')");
+
+  std::error_code ec;
+  fs::create_directories(o.out_dir, ec);
+  if (ec) throw BenchError("cannot create " + o.out_dir + ": " + ec.message());
+  const fs::path out = o.out_dir;
+  const fs::path jsonl = out / "results.jsonl";
+
+  std::map<std::string, std::string> done;  // key -> status
+  for (const json& r : read_records(jsonl.string())) done[record_key(r)] = r.value("status", "");
+
+  BenchSummary sum;
+  const LogFn log = [&](const std::string& line) {
+    if (o.log) o.log(line);
+  };
+  const std::vector<BenchTask> tasks = pending_tasks(o, configs, models, done, sum, log);
+  run_tasks(o, exe, tasks, out, jsonl, sum, log);
 
   size_t bad = 0;
   const std::vector<json> all = read_records(jsonl.string(), &bad);

@@ -205,20 +205,16 @@ std::vector<BenchModel> discover_models(const std::string& data, const std::stri
   return models;
 }
 
-std::vector<BenchConfig> expand_configs(const std::vector<std::string>& config_paths,
-                                        const std::vector<std::string>& sets,
-                                        const std::vector<std::string>& sweeps,
-                                        const std::vector<std::string>& externals) {
-  std::vector<std::string> set_labels;
-  for (const std::string& s : sets) {
-    const auto [key, value] = split_assignment(s, "--set");
-    set_labels.push_back(option_part(key) + "=" + value);
-  }
-  // Every combination of the swept values, in order.
-  struct Sweep {
-    std::string key;
-    std::vector<std::string> values;
-  };
+namespace {
+
+/// One --sweep KEY=V1,V2,...: the option and its values (none empty).
+struct Sweep {
+  std::string key;
+  std::vector<std::string> values;
+};
+
+/// The --sweep arguments; BenchError for an empty value in a list.
+std::vector<Sweep> parse_sweeps(const std::vector<std::string>& sweeps) {
   std::vector<Sweep> sw;
   for (const std::string& s : sweeps) {
     const auto [key, list] = split_assignment(s, "--sweep");
@@ -227,6 +223,12 @@ std::vector<BenchConfig> expand_configs(const std::vector<std::string>& config_p
       if (v.empty()) throw BenchError("--sweep '" + s + "': empty value in the list");
     sw.push_back(std::move(w));
   }
+  return sw;
+}
+
+/// Every combination of the swept values (an index per sweep), in order: the last sweep varies
+/// fastest; one empty combination without sweeps.
+std::vector<std::vector<size_t>> sweep_combinations(const std::vector<Sweep>& sw) {
   std::vector<std::vector<size_t>> combos(1);
   for (const Sweep& w : sw) {
     std::vector<std::vector<size_t>> next;
@@ -238,6 +240,55 @@ std::vector<BenchConfig> expand_configs(const std::vector<std::string>& config_p
       }
     combos = std::move(next);
   }
+  return combos;
+}
+
+/// The configuration file `path` (label stem `stem`) with the --set overrides `sets` (labelled
+/// set_labels) and the swept values `combo` of `sw`; labelled stem[set,...,sweep,...].
+BenchConfig swept_config(const std::string& path, const std::string& stem, const std::vector<std::string>& sets,
+                         const std::vector<std::string>& set_labels, const std::vector<Sweep>& sw,
+                         const std::vector<size_t>& combo) {
+  BenchConfig c;
+  c.base = stem;
+  c.path = absolute_normal(path);
+  c.overrides = sets;
+  std::vector<std::string> parts = set_labels;
+  std::vector<std::string> keys, values;
+  for (size_t k = 0; k < sw.size(); ++k) {
+    const std::string& v = sw[k].values[combo[k]];
+    c.overrides.push_back(sw[k].key + "=" + v);
+    parts.push_back(option_part(sw[k].key) + "=" + v);
+    keys.push_back(sw[k].key);
+    values.push_back(v);
+  }
+  for (size_t k = 0; k < keys.size(); ++k) {
+    c.sweep_key += (k ? "," : "") + keys[k];
+    c.sweep_value += (k ? "," : "") + values[k];
+  }
+  c.label = stem;
+  if (!parts.empty()) {
+    c.label += "[";
+    for (size_t k = 0; k < parts.size(); ++k) c.label += (k ? "," : "") + parts[k];
+    c.label += "]";
+  }
+  c.label = safe_name(c.label);
+  return c;
+}
+
+}  // namespace
+
+std::vector<BenchConfig> expand_configs(const std::vector<std::string>& config_paths,
+                                        const std::vector<std::string>& sets,
+                                        const std::vector<std::string>& sweeps,
+                                        const std::vector<std::string>& externals) {
+  std::vector<std::string> set_labels;
+  for (const std::string& s : sets) {
+    const auto [key, value] = split_assignment(s, "--set");
+    set_labels.push_back(option_part(key) + "=" + value);
+  }
+  // Every combination of the swept values, in order.
+  const std::vector<Sweep> sw = parse_sweeps(sweeps);
+  const std::vector<std::vector<size_t>> combos = sweep_combinations(sw);
 
   std::vector<BenchConfig> out;
   std::set<std::string> labels;
@@ -249,33 +300,7 @@ std::vector<BenchConfig> expand_configs(const std::vector<std::string>& config_p
   for (const std::string& path : config_paths) {
     if (!fs::is_regular_file(path)) throw BenchError("--configs: no such file " + path);
     const std::string stem = safe_name(fs::path(path).stem().string());
-    for (const auto& combo : combos) {
-      BenchConfig c;
-      c.base = stem;
-      c.path = absolute_normal(path);
-      c.overrides = sets;
-      std::vector<std::string> parts = set_labels;
-      std::vector<std::string> keys, values;
-      for (size_t k = 0; k < sw.size(); ++k) {
-        const std::string& v = sw[k].values[combo[k]];
-        c.overrides.push_back(sw[k].key + "=" + v);
-        parts.push_back(option_part(sw[k].key) + "=" + v);
-        keys.push_back(sw[k].key);
-        values.push_back(v);
-      }
-      for (size_t k = 0; k < keys.size(); ++k) {
-        c.sweep_key += (k ? "," : "") + keys[k];
-        c.sweep_value += (k ? "," : "") + values[k];
-      }
-      c.label = stem;
-      if (!parts.empty()) {
-        c.label += "[";
-        for (size_t k = 0; k < parts.size(); ++k) c.label += (k ? "," : "") + parts[k];
-        c.label += "]";
-      }
-      c.label = safe_name(c.label);
-      add(std::move(c));
-    }
+    for (const auto& combo : combos) add(swept_config(path, stem, sets, set_labels, sw, combo));
   }
   for (const std::string& e : externals) {
     const size_t eq = e.find('=');

@@ -372,6 +372,28 @@ class Remesher {
   }
   size_t polygon(size_t pi, Rng& rng, bool out);
 
+  /// The frame of a polygon's plane: (u, v, normal) right-handed, origin at its first outer point.
+  struct PlaneFrame {
+    Vec3 u, v, origin;
+    Vec2 to2(const Vec3& p) const { return Vec2((p - origin).dot(u), (p - origin).dot(v)); }
+  };
+  /// The points of one polygon being triangulated, in the frame's 2D coordinates.
+  struct PolygonPoints {
+    std::vector<std::vector<Vec2>> rings2;  ///< per kept ring (>= 3 ids): its corners
+    std::vector<int> ids;  ///< per point: boundary vertex id, or interior (-1 - interior index)
+    std::vector<Vec2> pts;
+    std::vector<std::pair<size_t, size_t>> ring_range;  ///< [first, end) of each ring's points in pts
+  };
+  /// polygon's boundary: every ring of polygon pi (>= 3 corners) with the corners on its sides and
+  /// their subdivisions, in order; records each boundary pair's elementary segment (pair_segment_).
+  void boundary_points(size_t pi, const PlaneFrame& fr, PolygonPoints& pp);
+  /// polygon's interior: a jittered hexagonal grid (offset and jitter from rng) inside the rings,
+  /// kept 0.55 edge from them, rows in boustrophedon order; appended to pp and interior_pos_.
+  void interior_points(Rng& rng, const PlaneFrame& fr, PolygonPoints& pp);
+  /// Delaunay triangulation of pp: appends the triangles of non-negligible area inside the rings
+  /// to tris_ (with `plane`) and the boundary segments it did not keep to missing_.
+  void triangulate_points(const PolygonPoints& pp, int plane);
+
   const Shape& shape_;
   double edge_;
   VertexPool pool_;
@@ -385,27 +407,14 @@ class Remesher {
   std::vector<int> face_plane_;
 };
 
-size_t Remesher::polygon(size_t pi, Rng& rng, bool out) {
-  const Polygon& P = shape_.polygons[pi];
-  // frame of the plane: (u, v, n) right-handed
-  const Vec3 n = P.normal;
-  const Vec3 ref = std::abs(n.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
-  const Vec3 u = ref.cross(n).normalized();
-  const Vec3 v = n.cross(u);
-  const Vec3 origin = P.outer[0];
-  auto to2 = [&](const Vec3& p) { return Vec2((p - origin).dot(u), (p - origin).dot(v)); };
-
-  std::vector<std::vector<Vec2>> rings2;
-  std::vector<int> ids;  // boundary vertex ids, then interior (negative: -1 - interior index)
-  std::vector<Vec2> pts;
-  std::vector<std::pair<size_t, size_t>> ring_range;  // [first, end) of each ring's points in pts
+void Remesher::boundary_points(size_t pi, const PlaneFrame& fr, PolygonPoints& pp) {
   for (const auto& ring : ring_ids_[pi]) {
     if (ring.size() < 3) continue;
     std::vector<Vec2> r2;
-    const size_t first = pts.size();
+    const size_t first = pp.pts.size();
     for (size_t i = 0; i < ring.size(); ++i) {
       const int a = ring[i], b = ring[(i + 1) % ring.size()];
-      r2.push_back(to2(pool_.pos[static_cast<size_t>(a)]));
+      r2.push_back(fr.to2(pool_.pos[static_cast<size_t>(a)]));
       std::vector<int> chain = corners_.on_segment(pool_.pos, a, b);
       chain.insert(chain.begin(), a);
       chain.push_back(b);
@@ -415,17 +424,18 @@ size_t Remesher::polygon(size_t pi, Rng& rng, bool out) {
         seg.push_back(chain[c + 1]);
         for (size_t k = 0; k + 1 < seg.size(); ++k) {
           pair_segment_[pair_key(seg[k], seg[k + 1])] = pair_key(chain[c], chain[c + 1]);
-          ids.push_back(seg[k]);
-          pts.push_back(to2(pool_.pos[static_cast<size_t>(seg[k])]));
+          pp.ids.push_back(seg[k]);
+          pp.pts.push_back(fr.to2(pool_.pos[static_cast<size_t>(seg[k])]));
         }
       }
     }
-    ring_range.emplace_back(first, pts.size());
-    rings2.push_back(std::move(r2));
+    pp.ring_range.emplace_back(first, pp.pts.size());
+    pp.rings2.push_back(std::move(r2));
   }
-  if (rings2.empty()) return 0;
-  const size_t n_boundary = pts.size();
-  // interior: jittered hexagonal grid, kept away from the boundary
+}
+
+void Remesher::interior_points(Rng& rng, const PlaneFrame& fr, PolygonPoints& pp) {
+  const auto& rings2 = pp.rings2;
   Vec2 lo = rings2[0][0], hi = rings2[0][0];
   for (const auto& r : rings2)
     for (const Vec2& q : r) {
@@ -445,14 +455,16 @@ size_t Remesher::polygon(size_t pi, Rng& rng, bool out) {
     }
     if (row % 2) std::reverse(line.begin(), line.end());  // boustrophedon: coherent insertion
     for (const Vec2& q : line) {
-      pts.push_back(q);
-      ids.push_back(-1 - static_cast<int>(interior_pos_.size()));
-      interior_pos_.push_back(origin + q.x() * u + q.y() * v);
+      pp.pts.push_back(q);
+      pp.ids.push_back(-1 - static_cast<int>(interior_pos_.size()));
+      interior_pos_.push_back(fr.origin + q.x() * fr.u + q.y() * fr.v);
     }
   }
-  const size_t n_interior = pts.size() - n_boundary;
-  const size_t predicted = 2 * n_interior + n_boundary + 2 * (rings2.size() - 1) - 2;
-  if (!out) return predicted;
+}
+
+void Remesher::triangulate_points(const PolygonPoints& pp, int plane) {
+  const auto& pts = pp.pts;
+  const auto& ids = pp.ids;
   Delaunay dt(pts);
   dt.insert_all();
   std::unordered_map<uint64_t, char> dt_edges;
@@ -463,19 +475,40 @@ size_t Remesher::polygon(size_t pi, Rng& rng, bool out) {
     const Vec2& b = pts[static_cast<size_t>(t[1])];
     const Vec2& c = pts[static_cast<size_t>(t[2])];
     if (orient(a, b, c) < min_area) continue;
-    if (!inside(rings2, (a + b + c) / 3.0)) continue;
+    if (!inside(pp.rings2, (a + b + c) / 3.0)) continue;
     std::array<int, 3> f;
     for (int k = 0; k < 3; ++k) f[static_cast<size_t>(k)] = ids[static_cast<size_t>(t[static_cast<size_t>(k)])];
     tris_.push_back(f);
-    face_plane_.push_back(P.plane);
+    face_plane_.push_back(plane);
   }
   // A boundary segment the triangulation did not keep: triangles cross the polygon's boundary there
   // (their winding can disagree with the neighbouring polygon's).
-  for (const auto& [first, end] : ring_range)
+  for (const auto& [first, end] : pp.ring_range)
     for (size_t i = first; i < end; ++i) {
       const size_t j = i + 1 < end ? i + 1 : first;
       if (!dt_edges.count(pair_key(static_cast<int>(i), static_cast<int>(j)))) missing_.emplace_back(ids[i], ids[j]);
     }
+}
+
+size_t Remesher::polygon(size_t pi, Rng& rng, bool out) {
+  const Polygon& P = shape_.polygons[pi];
+  // frame of the plane: (u, v, n) right-handed
+  const Vec3 n = P.normal;
+  const Vec3 ref = std::abs(n.z()) < 0.9 ? Vec3::UnitZ() : Vec3::UnitX();
+  PlaneFrame fr;
+  fr.u = ref.cross(n).normalized();
+  fr.v = n.cross(fr.u);
+  fr.origin = P.outer[0];
+  PolygonPoints pp;
+  boundary_points(pi, fr, pp);
+  if (pp.rings2.empty()) return 0;
+  const size_t n_boundary = pp.pts.size();
+  // interior: jittered hexagonal grid, kept away from the boundary
+  interior_points(rng, fr, pp);
+  const size_t n_interior = pp.pts.size() - n_boundary;
+  const size_t predicted = 2 * n_interior + n_boundary + 2 * (pp.rings2.size() - 1) - 2;
+  if (!out) return predicted;
+  triangulate_points(pp, P.plane);
   return predicted;
 }
 

@@ -88,6 +88,76 @@ bool occluded(const HeightField& hf, const Vec3& x, const Vec3& n, const Vec3& c
   }
 }
 
+/// Per face of m, per edge k (from corner k to k + 1): a face sharing that edge (the first other
+/// one listed), or -1.
+std::vector<std::array<int, 3>> face_neighbours(const RawMesh& m) {
+  const size_t F = m.tris.size();
+  std::unordered_map<uint64_t, std::vector<int>> edge_faces;
+  edge_faces.reserve(F * 2);
+  for (size_t f = 0; f < F; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = m.tris[f][static_cast<size_t>(k)], b = m.tris[f][static_cast<size_t>((k + 1) % 3)];
+      const uint64_t key = (static_cast<uint64_t>(std::min(a, b)) << 32) | static_cast<uint64_t>(std::max(a, b));
+      edge_faces[key].push_back(static_cast<int>(f));
+    }
+  std::vector<std::array<int, 3>> nbr(F, {-1, -1, -1});
+  for (size_t f = 0; f < F; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = m.tris[f][static_cast<size_t>(k)], b = m.tris[f][static_cast<size_t>((k + 1) % 3)];
+      const uint64_t key = (static_cast<uint64_t>(std::min(a, b)) << 32) | static_cast<uint64_t>(std::max(a, b));
+      for (int g : edge_faces[key])
+        if (g != static_cast<int>(f)) {
+          nbr[f][static_cast<size_t>(k)] = g;
+          break;
+        }
+    }
+  return nbr;
+}
+
+/// One pass of charts across planes: a face next to a face of another plane takes that neighbour's
+/// view (the first one, by edge) when the face sees it (valid, F x C) and cross_rng.chance(cross_plane).
+void cross_plane_views(const RawMesh& m, const std::vector<std::array<int, 3>>& nbr, const std::vector<uint8_t>& valid,
+                       size_t C, double cross_plane, Rng& cross_rng, std::vector<int>& view) {
+  const size_t F = m.tris.size();
+  std::vector<int> next = view;
+  for (size_t f = 0; f < F; ++f)
+    for (int g : nbr[f]) {
+      if (g < 0 || m.face_plane[static_cast<size_t>(g)] == m.face_plane[f]) continue;
+      const int l = view[static_cast<size_t>(g)];
+      if (l != view[f] && valid[f * C + static_cast<size_t>(l)] && cross_rng.chance(cross_plane)) {
+        next[f] = l;
+        break;
+      }
+    }
+  view.swap(next);
+}
+
+/// `passes` majority-vote passes: a face takes the view of two or more of its neighbours when it
+/// sees it (valid, F x C); every pass reads the views of the one before.
+void majority_passes(const std::vector<std::array<int, 3>>& nbr, const std::vector<uint8_t>& valid, size_t C, int passes,
+                     std::vector<int>& view) {
+  const size_t F = nbr.size();
+  for (int pass = 0; pass < passes; ++pass) {
+    std::vector<int> next = view;
+    for (size_t f = 0; f < F; ++f) {
+      const auto& nb = nbr[f];
+      for (int i = 0; i < 3; ++i) {
+        if (nb[static_cast<size_t>(i)] < 0) continue;
+        const int l = view[static_cast<size_t>(nb[static_cast<size_t>(i)])];
+        if (l == view[f]) continue;
+        int count = 0;
+        for (int j = 0; j < 3; ++j)
+          if (nb[static_cast<size_t>(j)] >= 0 && view[static_cast<size_t>(nb[static_cast<size_t>(j)])] == l) ++count;
+        if (count >= 2 && valid[f * C + static_cast<size_t>(l)]) {
+          next[f] = l;
+          break;
+        }
+      }
+    }
+    view.swap(next);
+  }
+}
+
 }  // namespace
 
 bool project(const Camera& c, const Vec3& p, Vec2& pixel) {
@@ -175,58 +245,10 @@ std::vector<int> select_views(const RawMesh& m, const Shape& shape, const std::v
     if (best_c < 0) valid[f * C + static_cast<size_t>(fallback_c)] = 1;
   }
   // face neighbours across shared edges (any number of faces per edge)
-  std::unordered_map<uint64_t, std::vector<int>> edge_faces;
-  edge_faces.reserve(F * 2);
-  for (size_t f = 0; f < F; ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int a = m.tris[f][static_cast<size_t>(k)], b = m.tris[f][static_cast<size_t>((k + 1) % 3)];
-      const uint64_t key = (static_cast<uint64_t>(std::min(a, b)) << 32) | static_cast<uint64_t>(std::max(a, b));
-      edge_faces[key].push_back(static_cast<int>(f));
-    }
-  std::vector<std::array<int, 3>> nbr(F, {-1, -1, -1});
-  for (size_t f = 0; f < F; ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int a = m.tris[f][static_cast<size_t>(k)], b = m.tris[f][static_cast<size_t>((k + 1) % 3)];
-      const uint64_t key = (static_cast<uint64_t>(std::min(a, b)) << 32) | static_cast<uint64_t>(std::max(a, b));
-      for (int g : edge_faces[key])
-        if (g != static_cast<int>(f)) {
-          nbr[f][static_cast<size_t>(k)] = g;
-          break;
-        }
-    }
+  const std::vector<std::array<int, 3>> nbr = face_neighbours(m);
   // Charts across planes: a face next to another plane takes that neighbour's view when it sees it.
-  if (cross_plane > 0) {
-    std::vector<int> next = view;
-    for (size_t f = 0; f < F; ++f)
-      for (int g : nbr[f]) {
-        if (g < 0 || m.face_plane[static_cast<size_t>(g)] == m.face_plane[f]) continue;
-        const int l = view[static_cast<size_t>(g)];
-        if (l != view[f] && valid[f * C + static_cast<size_t>(l)] && cross_rng.chance(cross_plane)) {
-          next[f] = l;
-          break;
-        }
-      }
-    view.swap(next);
-  }
-  for (int pass = 0; pass < passes; ++pass) {
-    std::vector<int> next = view;
-    for (size_t f = 0; f < F; ++f) {
-      const auto& nb = nbr[f];
-      for (int i = 0; i < 3; ++i) {
-        if (nb[static_cast<size_t>(i)] < 0) continue;
-        const int l = view[static_cast<size_t>(nb[static_cast<size_t>(i)])];
-        if (l == view[f]) continue;
-        int count = 0;
-        for (int j = 0; j < 3; ++j)
-          if (nb[static_cast<size_t>(j)] >= 0 && view[static_cast<size_t>(nb[static_cast<size_t>(j)])] == l) ++count;
-        if (count >= 2 && valid[f * C + static_cast<size_t>(l)]) {
-          next[f] = l;
-          break;
-        }
-      }
-    }
-    view.swap(next);
-  }
+  if (cross_plane > 0) cross_plane_views(m, nbr, valid, C, cross_plane, cross_rng, view);
+  majority_passes(nbr, valid, C, passes, view);
   return view;
 }
 
