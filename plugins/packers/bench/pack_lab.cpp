@@ -10,6 +10,7 @@
 // pairs of the input, the merged atlas and every packing, split into pairs inside one chart and
 // across charts, by intersection area, and the pairs each step added. PACK_LAB_HASH prints a hash of
 // each layout (page sizes, chart pages, wedge UVs, bit for bit), to check a change keeps layouts.
+// PACK_LAB_THREADS=N sets the thread count (default: every core; 1 for repeatable callgrind counts).
 // CACHE.atlas is written when missing (detector + merger of CONFIG) and read otherwise. Each
 // PACKER (e.g. packers.square_tetris:gutter=4,width_trials=8) is run on the cached atlas; one line
 // per packer: model, packer, charts, efficiency, output MP, input MP, wall ms, CPU ms (square_tetris
@@ -21,6 +22,7 @@
 #include "texdefrag/io/model_format.h"
 #include "texdefrag/pipeline/pipeline.h"
 #include "texdefrag/stage/registry.h"
+#include "texdefrag/util/parallel.h"
 
 #include <algorithm>
 #include <chrono>
@@ -205,6 +207,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
+    if (const char* t = std::getenv("PACK_LAB_THREADS")) set_thread_count(std::atoi(t));
     const PipelineConfig cfg = load_config(argv[1]);
     // note: "A.glb+B.glb+..." reads glTF files sharing an atlas as one model, as a tileset run does.
     const std::string model_arg = argv[2];
