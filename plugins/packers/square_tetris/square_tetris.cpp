@@ -22,6 +22,7 @@
 #include "texdefrag/util/parallel.h"
 
 #include <algorithm>
+#include <array>
 #include <climits>
 #include <cmath>
 #include <random>
@@ -339,13 +340,56 @@ class RasterPage {
     used_ = std::max(used_, y + m.h);
   }
 
-  /// Lowest (then leftmost) position where mask m fits with its top at most max_top; false if none.
+  /// Where the best turn of a chart fits: the turn (index into the masks), its lowest-left corner.
+  struct Fit {
+    int q = -1, x = 0, y = 0;
+  };
+  /// The position among `masks` (one per quarter turn; duplicates skipped) with the lowest top,
+  /// then the lowest index, then the lowest and leftmost corner; q = -1 when none fits the page.
+  /// Same result as searching each mask bottom-up in turn and keeping the lowest top.
+  /// note: the turns are searched side by side, always at the row of the one whose next candidate
+  /// row has the lowest top, so no turn scans rows above the answer's top. Searched one after the
+  /// other, turns that do not win took 81% of the row attempts (t016_L19, best.json, width 1632).
   /// note: cells only ever become occupied, so a mask never fits below a row where it (or a mask
-  /// with the same cells) did not fit before: the search resumes there (resume_, per shape id).
-  bool first_fit(const RunMask& m, int max_top, int& bx, int& by) {
-    if (m.w > width_ || m.wide_len == 0) return false;
-    max_top = std::min(max_top, height_);
-    const int rows = static_cast<int>(free_.size());
+  /// with the same cells) did not fit before: each search resumes there (resume_, per shape id).
+  Fit lowest_fit(const std::vector<RunMask>& masks) {
+    struct Cursor {
+      const RunMask* m;
+      int y;  ///< next candidate row (every lower row ruled out); y + m->h > height_: none left
+    };
+    std::array<Cursor, 4> cur{};
+    size_t n = 0;
+    for (const RunMask& m : masks)
+      if (!m.duplicate && n < cur.size()) cur[n++] = Cursor{&m, start_row(m)};
+    Fit f;
+    for (;;) {
+      size_t best = n;  // the live cursor with the lowest top, ties to the lower index
+      for (size_t i = 0; i < n; ++i)
+        if (cur[i].y + cur[i].m->h <= height_ &&
+            (best == n || cur[i].y + cur[i].m->h < cur[best].y + cur[best].m->h))
+          best = i;
+      if (best == n) break;
+      Cursor& c = cur[best];
+      const int x = leftmost_at(*c.m, c.y);
+      if (x >= 0) {
+        f.q = static_cast<int>(c.m - masks.data());
+        f.x = x;
+        f.y = c.y;
+        break;
+      }
+      c.y = candidate_row(*c.m, c.m->grid.up_y(c.y + 1));
+    }
+    for (size_t i = 0; i < n; ++i)  // every row below a cursor was ruled out (the winner's: below its fit)
+      if (cur[i].m->shape >= 0) resume_[static_cast<size_t>(cur[i].m->shape)] = cur[i].y;
+    return f;
+  }
+
+ private:
+  /// The first candidate row of mask m: from its resume row, the lowest where its core rectangle
+  /// fits, then the first that passes the longest-run filter (candidate_row); beyond height_ - m.h
+  /// when m cannot fit the page.
+  int start_row(const RunMask& m) {
+    if (m.w > width_ || m.wide_len == 0) return height_;
     int start = 0;
     if (m.shape >= 0) {
       if (resume_.size() <= static_cast<size_t>(m.shape)) resume_.resize(static_cast<size_t>(m.shape) + 1, 0);
@@ -353,25 +397,19 @@ class RasterPage {
     }
     // m fits at row y only if its core rectangle fits at row y + core_y.
     if (m.core_w > 0) {
-      const int yc = lowest_rect(m.core_w, m.core_h, start + m.core_y, max_top - m.h + m.core_y);
-      if (yc < 0) {
-        if (m.shape >= 0) resume_[static_cast<size_t>(m.shape)] = std::max(start, max_top - m.h + 1);
-        return false;
-      }
+      const int yc = lowest_rect(m.core_w, m.core_h, start + m.core_y, height_ - m.h + m.core_y);
+      if (yc < 0) return std::max(start, height_ - m.h + 1);
       start = yc - m.core_y;
     }
-    auto found = [&](int x, int y) {
-      if (m.shape >= 0) resume_[static_cast<size_t>(m.shape)] = y;
-      bx = x;
-      by = y;
-      return true;
-    };
-    start = m.grid.up_y(start);
-    for (int y = start; y + m.h <= max_top; y = m.grid.up_y(y + 1)) {
-      // Each mask row needs a page row whose longest free run holds its longest run: skip to the
-      // next y where the first row that cannot (longest runs first) can.
+    return candidate_row(m, m.grid.up_y(start));
+  }
+  /// The first grid row y' >= y (y on m's grid) where each of m's 4 longest rows finds a page row
+  /// whose longest free run holds it (block maxima skip rows that cannot); may exceed height_ - m.h.
+  int candidate_row(const RunMask& m, int y) const {
+    const int rows = static_cast<int>(free_.size());
+    constexpr size_t kFilterRows = 4;  // the rest is left to leftmost_at
+    while (y + m.h <= height_) {
       int skip = -1;
-      constexpr size_t kFilterRows = 4;  // the rest is left to leftmost_at
       for (size_t i = 0; i < std::min(kFilterRows, m.longest.size()); ++i) {
         const auto& [r, k] = m.longest[i];
         if (y + r >= rows) continue;
@@ -380,18 +418,12 @@ class RasterPage {
           break;
         }
       }
-      if (skip >= 0) {
-        y = m.grid.up_y(skip) - 1;  // the loop's step goes on to the next grid row at or above skip
-        continue;
-      }
-      const int x = leftmost_at(m, y);
-      if (x >= 0) return found(x, y);
+      if (skip < 0) return y;
+      y = m.grid.up_y(skip);
     }
-    if (m.shape >= 0) resume_[static_cast<size_t>(m.shape)] = std::max(start, max_top - m.h + 1);
-    return false;
+    return y;
   }
 
- private:
   struct Run {
     int a, b;  ///< free cells [a, b)
   };
@@ -557,6 +589,183 @@ Grid block_grid_of(const PackChart& c, int q, const CommonSettings& s) {
   return g;
 }
 
+/// One packing of the charts in `order` with pages of one width (a width trial): the pages' state
+/// and each placement step of pack_square_tetris.
+class TetrisTrial {
+ public:
+  TetrisTrial(const PackInput& in, const CommonSettings& s, const std::vector<int>& order, size_t tail,
+              const std::vector<std::vector<RunMask>>& profiles, const std::vector<std::vector<packing::Profile>>& drops,
+              int width)
+      : in_(in), s_(s), order_(order), tail_(tail), profiles_(profiles), drops_(drops), width_(width) {
+    // Smallest short side among the charts still to come: holes narrower than that are dropped.
+    suffix_min_.assign(order.size() + 1, INT_MAX);
+    for (size_t i = order.size(); i-- > 0;) {
+      const PackChart& c = chart(i);
+      suffix_min_[i] = std::min({suffix_min_[i + 1], packing::padded_w(c, 0, s), packing::padded_h(c, 0, s),
+                                 packing::padded_w(c, 1, s), packing::padded_h(c, 1, s)});
+    }
+    // Shortest run of any tail mask: the rasters keep only free runs at least this long.
+    for (size_t n = tail; n < order.size() && drops.empty(); ++n)
+      for (const RunMask& m : profiles[static_cast<size_t>(order[n])])
+        for (const auto& row : m.rows)
+          for (const auto& run : row) min_run_ = std::min(min_run_, run.second);
+  }
+
+  /// Places every chart (pages opened as needed); stops early, marked losing, when `bound` says the
+  /// trial cannot win.
+  PackResult run(packing::TrialBound& bound, const StageContext& ctx) {
+    bound.start();
+    r_.placements.assign(in_.charts.size(), Placement{});
+    for (size_t n = 0; n < order_.size(); ++n) {
+      if (bound.reports_progress() && (n & 1023) == 0)
+        ctx.step("packers.square_tetris", static_cast<double>(n) / static_cast<double>(order_.size()));
+      const PackChart& c = chart(n);
+      packing::place_on_pages(pages_, [&] { return PageState(width_, s_.max_page_size); },
+                              [&](size_t p) { return try_page(n, p, bound); }, "packers.square_tetris", c.id, width_);
+      // A better single-page width was already found: this width cannot beat it (pages only grow).
+      if (bound.hopeless(pages_.size(), s_)) {
+        packing::TrialBound::lose(r_, pages_.size());
+        return std::move(r_);
+      }
+    }
+    r_.pages = static_cast<int>(pages_.size());
+    return std::move(r_);
+  }
+
+ private:
+  const PackChart& chart(size_t n) const { return in_.charts[static_cast<size_t>(order_[n])]; }
+
+  /// Places the n-th chart of the order on page p (an enclosed space, the horizon, or the tail's
+  /// search); false, page unchanged, when it does not fit there.
+  bool try_page(size_t n, size_t p, packing::TrialBound& bound) {
+    const PackChart& c = chart(n);
+    int q = 0;
+    Rect at{};
+    if (n < tail_ && place_in_hole(c, n, p, q, at)) ++r_.hole_fills;
+    else if (n >= tail_ && !drops_.empty() && drop(c, p, q, at)) ++r_.outline_drops;
+    else if (n >= tail_ && drops_.empty() && place_outline(c, p, q, at)) ++r_.outline_drops;
+    else if (n >= tail_ || !place_on_horizon(c, n, p, q, at)) return false;
+    if (n < tail_) {
+      if (boxes_.size() <= p) boxes_.resize(p + 1);
+      boxes_[p].emplace_back(c.id, q, at);
+    }
+    const int lo = s_.gutter / 2;
+    r_.placements[static_cast<size_t>(c.id)] = Placement{static_cast<int>(p), at.x + lo, at.y + lo, q};
+    bound.placed(c, r_.placements[static_cast<size_t>(c.id)], s_);
+    return true;
+  }
+
+  /// 1. A rectangle into the best-fitting enclosed unused space of page p, if any.
+  bool place_in_hole(const PackChart& c, size_t n, size_t p, int& best_q, Rect& at) {
+    PageState& pg = pages_[p];
+    long long best = -1;
+    int hole_x = 0, hole_y = 0;
+    for (int q = 0; q < (s_.allow_rotation ? 2 : 1); ++q) {
+      size_t which = 0;
+      int x = 0, y = 0;
+      const long long left = pg.best_hole(packing::padded_w(c, q, s_), packing::padded_h(c, q, s_), suffix_min_[n],
+                                          which, block_grid_of(c, q, s_), x, y);
+      if (left >= 0 && (best < 0 || left < best)) {
+        best = left;
+        hole_x = x;
+        hole_y = y;
+        best_q = q;
+      }
+    }
+    if (best < 0) return false;
+    at = pg.place_in_hole(hole_x, hole_y, packing::padded_w(c, best_q, s_), packing::padded_h(c, best_q, s_),
+                          suffix_min_[n + 1]);
+    return true;
+  }
+
+  /// 2. A rectangle on the horizon of page p, lowest new peak (then least enclosed area).
+  bool place_on_horizon(const PackChart& c, size_t n, size_t p, int& best_q, Rect& at) {
+    PageState& pg = pages_[p];
+    bool found = false;
+    int bx = 0, by = 0;
+    long long bpeak = 0, bwaste = 0;
+    for (int q = 0; q < (s_.allow_rotation ? 2 : 1); ++q) {
+      int x = 0, y = 0;
+      long long waste = 0;
+      const int w = packing::padded_w(c, q, s_), h = packing::padded_h(c, q, s_);
+      if (!pg.best_on_horizon(w, h, x, y, waste, block_grid_of(c, q, s_))) continue;
+      const long long peak = y + h;
+      if (!found || peak < bpeak || (peak == bpeak && waste < bwaste)) {
+        found = true;
+        bpeak = peak;
+        bwaste = waste;
+        bx = x;
+        by = y;
+        best_q = q;
+      }
+    }
+    if (!found) return false;  // does not fit even an empty page: place_on_pages reports it
+    at = pg.place_on_horizon(bx, by, packing::padded_w(c, best_q, s_), packing::padded_h(c, best_q, s_),
+                             suffix_min_[n + 1]);
+    return true;
+  }
+
+  /// 3. A tail chart by its outline at the lowest position anywhere on page p (holes included).
+  bool place_outline(const PackChart& c, size_t p, int& best_q, Rect& at) {
+    if (boxes_.size() < pages_.size()) boxes_.resize(pages_.size());
+    while (rasters_.size() < pages_.size()) {
+      rasters_.emplace_back(width_, s_.max_page_size, min_run_);
+      // Charts placed as rectangles occupy their dilated outline only: the tail may use the
+      // corners of their boxes.
+      for (const auto& [id, q, b] : boxes_[rasters_.size() - 1]) {
+        const auto& m = profiles_[static_cast<size_t>(id)];
+        if (static_cast<size_t>(q) < m.size() && !m[static_cast<size_t>(q)].duplicate)
+          rasters_.back().fill_mask(m[static_cast<size_t>(q)], b.x, b.y);
+        else
+          rasters_.back().fill_rect(b.x, b.y, b.w, b.h);
+      }
+    }
+    RasterPage& rp = rasters_[p];
+    const auto& profs = profiles_[static_cast<size_t>(c.id)];
+    const RasterPage::Fit f = rp.lowest_fit(profs);
+    if (f.q < 0) return false;
+    best_q = f.q;
+    rp.fill_mask(profs[static_cast<size_t>(best_q)], f.x, f.y);
+    at = Rect{f.x, f.y, 0, 0};
+    return true;
+  }
+
+  /// 3'. A chart of a tail too large for the outline search, dropped on the horizon of page p
+  /// above the rectangles (packers.tetris's drop).
+  bool drop(const PackChart& c, size_t p, int& best_q, Rect& at) {
+    while (horizons_.size() < pages_.size()) horizons_.emplace_back(pages_[horizons_.size()].heights());
+    const auto& profs = drops_[static_cast<size_t>(c.id)];
+    packing::Drop d;
+    for (size_t q = 0; q < profs.size(); ++q) {
+      if (profs[q].duplicate) continue;
+      const packing::Drop e = packing::best_drop(horizons_[p], s_.max_page_size, profs[q]);
+      if (e.found && (!d.found || e.cost < d.cost || (e.cost == d.cost && e.top < d.top))) {
+        d = e;
+        best_q = static_cast<int>(q);
+      }
+    }
+    if (!d.found) return false;
+    horizons_[p].place(profs[static_cast<size_t>(best_q)], d);
+    at = Rect{d.x, d.y, 0, 0};
+    return true;
+  }
+
+  const PackInput& in_;
+  const CommonSettings& s_;
+  const std::vector<int>& order_;
+  size_t tail_;
+  const std::vector<std::vector<RunMask>>& profiles_;
+  const std::vector<std::vector<packing::Profile>>& drops_;
+  int width_;
+  std::vector<int> suffix_min_;
+  int min_run_ = INT_MAX;
+  PackResult r_;
+  std::vector<PageState> pages_;
+  std::vector<RasterPage> rasters_;          ///< the pages' occupancy once the tail starts
+  std::vector<packing::Horizon> horizons_;   ///< the pages' horizons once a dropped tail starts
+  std::vector<std::vector<std::tuple<int, int, Rect>>> boxes_;  ///< per page: chart, turn, padded box
+};
+
 /// tail: charts from order[tail] on are small; they are placed by their dilated outline at the lowest
 /// free position of the page (RasterPage), with `profiles` (outline run masks per turn) per chart id,
 /// or, when `drops` is not empty (a tail too large for that search), dropped on the horizon above
@@ -565,151 +774,7 @@ PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, cons
                               size_t tail, const std::vector<std::vector<RunMask>>& profiles,
                               const std::vector<std::vector<packing::Profile>>& drops, int width,
                               packing::TrialBound& bound, const StageContext& ctx) {
-  PackResult r;
-  bound.start();
-  r.placements.assign(in.charts.size(), Placement{});
-  std::vector<PageState> pages;
-  std::vector<RasterPage> rasters;  // the pages' occupancy once the tail starts
-  std::vector<packing::Horizon> horizons;  // the pages' horizons once a dropped tail starts
-  std::vector<std::vector<std::tuple<int, int, Rect>>> boxes;  // per page: chart, turn, padded box
-  // Smallest short side among the charts still to come: holes narrower than that are dropped.
-  std::vector<int> suffix_min(order.size() + 1, INT_MAX);
-  for (size_t i = order.size(); i-- > 0;) {
-    const PackChart& c = in.charts[static_cast<size_t>(order[i])];
-    suffix_min[i] = std::min({suffix_min[i + 1], packing::padded_w(c, 0, s), packing::padded_h(c, 0, s),
-                              packing::padded_w(c, 1, s), packing::padded_h(c, 1, s)});
-  }
-  // Shortest run of any tail mask: the rasters keep only free runs at least this long.
-  int min_run = INT_MAX;
-  for (size_t n = tail; n < order.size() && drops.empty(); ++n)
-    for (const RunMask& m : profiles[static_cast<size_t>(order[n])])
-      for (const auto& row : m.rows)
-        for (const auto& run : row) min_run = std::min(min_run, run.second);
-  const int lo = s.gutter / 2;
-  for (size_t n = 0; n < order.size(); ++n) {
-    if (bound.reports_progress() && (n & 1023) == 0)
-      ctx.step("packers.square_tetris", static_cast<double>(n) / static_cast<double>(order.size()));
-    const PackChart& c = in.charts[static_cast<size_t>(order[n])];
-    const int min_side = suffix_min[n + 1];
-    const int nq = s.allow_rotation ? 2 : 1;
-    packing::place_on_pages(pages, [&] { return PageState(width, s.max_page_size); }, [&](size_t p) {
-      PageState& pg = pages[p];
-      // 1. enclosed unused spaces first.
-      long long best = -1;
-      int hole_x = 0, hole_y = 0;
-      int best_q = 0;
-      for (int q = 0; q < nq && n < tail; ++q) {
-        size_t which = 0;
-        int x = 0, y = 0;
-        const long long left = pg.best_hole(packing::padded_w(c, q, s), packing::padded_h(c, q, s), suffix_min[n],
-                                            which, block_grid_of(c, q, s), x, y);
-        if (left >= 0 && (best < 0 || left < best)) {
-          best = left;
-          hole_x = x;
-          hole_y = y;
-          best_q = q;
-        }
-      }
-      Rect at{};
-      if (best >= 0) {
-        at = pg.place_in_hole(hole_x, hole_y, packing::padded_w(c, best_q, s), packing::padded_h(c, best_q, s), min_side);
-        ++r.hole_fills;
-      } else if (n >= tail && !drops.empty()) {
-        // 3'. small charts of a large tail: dropped on the horizon (packers.tetris's drop).
-        while (horizons.size() < pages.size()) horizons.emplace_back(pages[horizons.size()].heights());
-        const auto& profs = drops[static_cast<size_t>(c.id)];
-        packing::Drop d;
-        for (size_t q = 0; q < profs.size(); ++q) {
-          if (profs[q].duplicate) continue;
-          const packing::Drop e = packing::best_drop(horizons[p], s.max_page_size, profs[q]);
-          if (e.found && (!d.found || e.cost < d.cost || (e.cost == d.cost && e.top < d.top))) {
-            d = e;
-            best_q = static_cast<int>(q);
-          }
-        }
-        if (!d.found) return false;
-        horizons[p].place(profs[static_cast<size_t>(best_q)], d);
-        ++r.outline_drops;
-        at = Rect{d.x, d.y, 0, 0};
-      } else if (n >= tail) {
-        // 3. small charts: lowest position of the outline anywhere on the page (holes included).
-        if (boxes.size() < pages.size()) boxes.resize(pages.size());
-        while (rasters.size() < pages.size()) {
-          rasters.emplace_back(width, s.max_page_size, min_run);
-          // Charts placed as rectangles occupy their dilated outline only: the tail may use the
-          // corners of their boxes.
-          for (const auto& [id, q, b] : boxes[rasters.size() - 1]) {
-            const auto& m = profiles[static_cast<size_t>(id)];
-            if (static_cast<size_t>(q) < m.size() && !m[static_cast<size_t>(q)].duplicate)
-              rasters.back().fill_mask(m[static_cast<size_t>(q)], b.x, b.y);
-            else
-              rasters.back().fill_rect(b.x, b.y, b.w, b.h);
-          }
-        }
-        RasterPage& rp = rasters[p];
-        const auto& profs = profiles[static_cast<size_t>(c.id)];
-        bool found = false;
-        int bx = 0, by = 0, btop = 0;
-        for (size_t q = 0; q < profs.size(); ++q) {
-          if (profs[q].duplicate) continue;
-          int x = 0, y = 0;
-          if (!rp.first_fit(profs[q], found ? btop : INT_MAX, x, y)) continue;
-          const int top = y + profs[q].h;
-          if (!found || top < btop) {
-            found = true;
-            btop = top;
-            bx = x;
-            by = y;
-            best_q = static_cast<int>(q);
-          }
-        }
-        if (!found) {
-          return false;
-        }
-        rp.fill_mask(profs[static_cast<size_t>(best_q)], bx, by);
-        ++r.outline_drops;
-        at = Rect{bx, by, 0, 0};
-      } else {
-        // 2. on the horizon, lowest new peak.
-        bool found = false;
-        int bx = 0, by = 0;
-        long long bpeak = 0, bwaste = 0;
-        for (int q = 0; q < nq; ++q) {
-          int x = 0, y = 0;
-          long long waste = 0;
-          const int w = packing::padded_w(c, q, s), h = packing::padded_h(c, q, s);
-          if (!pg.best_on_horizon(w, h, x, y, waste, block_grid_of(c, q, s))) continue;
-          const long long peak = y + h;
-          if (!found || peak < bpeak || (peak == bpeak && waste < bwaste)) {
-            found = true;
-            bpeak = peak;
-            bwaste = waste;
-            bx = x;
-            by = y;
-            best_q = q;
-          }
-        }
-        if (!found) {
-          return false;  // does not fit even an empty page: place_on_pages reports it
-        }
-        at = pg.place_on_horizon(bx, by, packing::padded_w(c, best_q, s), packing::padded_h(c, best_q, s), min_side);
-      }
-      if (n < tail) {
-        if (boxes.size() <= p) boxes.resize(p + 1);
-        boxes[p].emplace_back(c.id, best_q, at);
-      }
-      r.placements[static_cast<size_t>(c.id)] = Placement{static_cast<int>(p), at.x + lo, at.y + lo, best_q};
-      bound.placed(c, r.placements[static_cast<size_t>(c.id)], s);
-      return true;
-    }, "packers.square_tetris", c.id, width);
-    // A better single-page width was already found: this width cannot beat it (pages only grow).
-    if (bound.hopeless(pages.size(), s)) {
-      packing::TrialBound::lose(r, pages.size());
-      return r;
-    }
-  }
-  r.pages = static_cast<int>(pages.size());
-  return r;
+  return TetrisTrial(in, s, order, tail, profiles, drops, width).run(bound, ctx);
 }
 
 class SquareTetris : public Packer {
