@@ -15,6 +15,7 @@
 #include <condition_variable>
 #include <exception>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <cmath>
 #include <mutex>
@@ -26,7 +27,9 @@
 
 namespace texdefrag::merge {
 
-std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
+namespace {
+/// Options of the merge order, the distortion bounds and the free region.
+std::vector<OptionSpec> order_and_bound_specs(double local_bound_default) {
   return {
       opt_enum("priority", "planarity", {"planarity", "mmethod"},
                "Merge order: 'planarity' = largest max(I_a,I_b)*max(area_a,area_b) first (Liu et al.); "
@@ -62,7 +65,13 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
               "Attempts per chart pair; a rejected pair is retried only after one of its charts changed")
           .range(1, 1000),
       opt_int("max_free_vertices", 2000, "Largest free region of one merge (nearest wedges to the seam first)")
-          .range(1, 10000000),
+          .range(1, 10000000)
+  };
+}
+
+/// Options of the second pass (across regions) and of closing cuts.
+std::vector<OptionSpec> second_pass_specs() {
+  return {
       opt_enum("second_pass", "none", {"none", "across_regions"},
                "After the region-constrained queue is empty: 'none' stops (Liu et al.); 'across_regions' queues every "
                "adjacent chart pair, regions ignored, and merges on with the remaining global distortion budget"),
@@ -81,7 +90,13 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
       opt_bool("close_cuts", false,
                "After the last pass, close cuts inside one chart (weld the two UV sides of a self-seam) when the "
                "chart stays a disk and the merge checks (flips, folds, fans, overlaps, local and global distortion) "
-               "hold"),
+               "hold")
+  };
+}
+
+/// Options of the unconstrained trial, fan targets, partial welds and cross-page merges.
+std::vector<OptionSpec> trial_and_weld_specs() {
+  return {
       opt_bool("unconstrained_trial", false,
                "With regions: when the run ends below unconstrained_trial_share x global_bound (the regions had no "
                "scarce budget to allocate), merge again from the input without regions and keep that atlas when it "
@@ -110,8 +125,18 @@ std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
           .range(0, 16),
       opt_bool("cross_page", true,
                "Merge charts whose texels lie on different input pages (each face keeps its own page's texels as "
-               "rest shape); false keeps every chart on one input page"),
+               "rest shape); false keeps every chart on one input page")
   };
+}
+}  // namespace
+
+std::vector<OptionSpec> merge_option_specs(double local_bound_default) {
+  std::vector<OptionSpec> specs = order_and_bound_specs(local_bound_default);
+  for (auto* part : {second_pass_specs, trial_and_weld_specs}) {
+    std::vector<OptionSpec> more = part();
+    specs.insert(specs.end(), std::make_move_iterator(more.begin()), std::make_move_iterator(more.end()));
+  }
+  return specs;
 }
 
 MergeOptions merge_options_from(const Options& o) {
