@@ -109,6 +109,12 @@ BENCHMARK_CAPTURE(BM_Pack, square_tetris_tail512_unlimited, std::string("packers
                   json{{"tail_max_charts", 0}})
     ->Arg(10000)
     ->Unit(benchmark::kMillisecond);
+// note: a real tile's size after merging (best.json: gutter 2, 500-800 charts on one page): every
+// chart in the outline tail's bottom-left search, page-width trials and the block-grid trial; the
+// case the tail search's speed work of 2026-12-04 was measured for (docs/speed.md).
+BENCHMARK_CAPTURE(BM_Pack, square_tetris_gutter2, std::string("packers.square_tetris"), json{{"gutter", 2}})
+    ->Arg(1000)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Pack, tetris, std::string("packers.tetris"))->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Pack, shelf, std::string("packers.shelf"))->Arg(10000)->Unit(benchmark::kMillisecond);
 

@@ -335,6 +335,39 @@ TEST(PackersSquareTetris, OutlineTailLowestThenLeftmostAroundNarrowGaps) {
   }
 }
 
+TEST(PackersSquareTetris, OutlineTailTakesTheTurnWithTheLowestTopThenTheLowerTurn) {
+  // Every chart in the outline tail, one page width (64), gutter 4, quarter turns allowed; area
+  // order C (64 x 14 padded), L (14 x 44 padded upright), the triangle T (14 x 14 padded).
+  // - C lies flat at (0, 0) (turn 0 top 14; turn 1 would be 64).
+  // - L upright would top at 14 + 44 = 58, turned a quarter (44 x 14) at 14 + 14 = 28: turned, at
+  //   (0, 14) -> box corner (2, 16).
+  // - T's four turns (different cells, same 14 x 14 box) all fit at (44, 14) with top 28: the tie
+  //   goes to the lower turn, 0 (not turned), box corner (46, 16).
+  const json opts = {{"width_trials", 1}, {"tail_side", 4096}, {"order_trials_max_charts", 0},
+                     {"gutter", 4}, {"page_multiple", 32}, {"block_grid", 0}};
+  const std::vector<std::vector<Vec2>> polys = {
+      {{0, 0}, {60, 0}, {60, 10}, {0, 10}},          // C: faces 0, 1
+      {{100, 100}, {110, 100}, {110, 140}, {100, 140}},  // L: faces 2, 3
+      {{300, 300}, {310, 300}, {300, 310}},           // T: face 4
+  };
+  auto run = run_packer(kName, polygon_mesh(polys, 1024), opts);
+  expect_valid_layout(*run, 4);
+  ASSERT_EQ(run->report.at("page_sizes"), json::parse("[[64, 32]]"));
+  EXPECT_EQ(run->report.at("charts_turned_90"), 1);
+  auto corner = [&](size_t f0, size_t f1) {  // lowest output UV corner of faces [f0, f1)
+    Vec2 lo(1e9, 1e9);
+    for (size_t f = f0; f < f1; ++f)
+      for (int w : run->ctx.atlas.face_wedge[f]) lo = lo.cwiseMin(run->ctx.layout.wedge_uv[static_cast<size_t>(w)]);
+    return lo;
+  };
+  EXPECT_EQ(corner(0, 2), Vec2(2, 2));
+  EXPECT_EQ(corner(2, 4), Vec2(2, 16));
+  EXPECT_EQ(corner(4, 5), Vec2(46, 16));
+  // T not turned: its right angle stays at its lowest-left corner.
+  const Vec2 right_angle = run->ctx.layout.wedge_uv[static_cast<size_t>(run->ctx.atlas.face_wedge[4][0])];
+  EXPECT_EQ(right_angle, Vec2(46, 16));
+}
+
 namespace {
 /// Per chart with faces: whether its output UVs are its input texels turned by k quarter turns and
 /// moved by T with T on the g x g block grid, both measured in image coordinates (x, page height -
