@@ -445,6 +445,32 @@ class Engine {
   const char* check_fans(Move& mv);
   const char* check_boundary(Move& mv);
   const char* check_triangles(const Move& mv);
+  // ---- check_boundary's steps
+  /// Sorts the boundary edges the move can have touched (the smaller chart's, the changed faces',
+  /// those around welded wedges) into mv.dead (no longer boundary) and mv.moved_ids (an end moved).
+  void collect_moved_edges(Move& mv);
+  /// collect_moved_edges for the three edges of face f (each edge at most once per move).
+  void classify_edges(Move& mv, int f);
+  /// Boundary edge e (3 x face + local edge) as a segment at its current UV positions.
+  Segment edge_segment(int e);
+  /// The merged chart's unmoved, live boundary segments that the moved ones can cross: the smaller
+  /// chart's, and the bigger chart's near a moved segment (its segment grid, or all of them when
+  /// the query would visit more cells than it has boundary edges), each once, appended to `all`.
+  void gather_unmoved_segments(const Move& mv, const std::vector<Segment>& moved, std::vector<Segment>& all);
+  /// Whether the crossing pair (x, y) of boundary segments is one the move added: the faces were in
+  /// two charts, or the two edges did not cross before it.
+  bool crossing_is_new(const Move& mv, Before& b, const Segment& x, const Segment& y) const;
+  // ---- check_triangles' steps
+  /// Appends the smaller chart's unchanged faces (they moved rigidly; none for a closed cut), then
+  /// the changed faces, to mt, growing [lo, hi] over their corners; returns the rigid prefix's size.
+  size_t collect_moved_triangles(const Move& mv, std::vector<Tri2>& mt, Vec2& lo, Vec2& hi);
+  /// Appends to `rest` the bigger chart's unchanged triangles whose box meets [lo, hi], taken from
+  /// its triangle grid near the triangles of mt (or from all its faces when that is cheaper).
+  void gather_triangles_near(const Move& mv, const std::vector<Tri2>& mt, const Vec2& lo, const Vec2& hi,
+                             std::vector<Tri2>& rest);
+  /// The grid cell ranges to query for each triangle of mt (its box, widened by its longest edge);
+  /// adds their cell counts to ncells.
+  std::vector<std::array<int, 4>> triangle_query_cells(const std::vector<Tri2>& mt, double& ncells) const;
   // ---- commit parts
   void commit_grids(const Move& mv);
   void commit_boundary(const Move& mv);

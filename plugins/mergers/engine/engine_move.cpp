@@ -654,50 +654,68 @@ const char* Engine::check_fans(Move& mv) {
 }
 
 const char* Engine::check_boundary(Move& mv) {
-  Lane& L = *mv.lane;
   // Self-overlap of the merged chart: its moved boundary segments against its other boundary
   // segments. Only edges with a welded (representative) wedge can stop being boundary edges; only
   // edges of the smaller chart and of the changed faces can have moved. The other segments come from
   // the bigger chart's segment grid, queried with the moved segments' boxes, so the test costs
   // O(moved segments + segments near them), not O(boundary).
-  const ChartInfo& Bg = C(mv.big);
+  collect_moved_edges(mv);
+  std::vector<Segment> all, moved;
+  moved.reserve(mv.moved_ids.size());
+  for (int e : mv.moved_ids) moved.push_back(edge_segment(e));
+  gather_unmoved_segments(mv, moved, all);
+  // Only a crossing the move added counts (as for triangles in check_triangles): two boundary
+  // segments of faces that were in one chart and crossed before the move are an input overlap.
+  Before before;
+  auto is_new = [&](const Segment& x, const Segment& y) { return crossing_is_new(mv, before, x, y); };
+  return any_crossing(moved, all, is_new) ? "overlap" : nullptr;
+}
+
+void Engine::collect_moved_edges(Move& mv) {
   const ChartInfo& Sm = C(mv.small);
-  auto consider = [&](int f) {
-    for (int k = 0; k < 3; ++k) {
-      const int e = 3 * f + k;
-      if (!ebnd_[static_cast<size_t>(e)] || emoved_[static_cast<size_t>(e)] == L.epoch ||
-          edead_[static_cast<size_t>(e)] == L.epoch)
-        continue;
-      const int w0 = wedge(f, k), w1 = wedge(f, (k + 1) % 3);
-      if ((wrep_[static_cast<size_t>(w0)] == L.epoch || wrep_[static_cast<size_t>(w1)] == L.epoch) &&
-          !is_boundary(f, k, mv.big)) {
-        edead_[static_cast<size_t>(e)] = L.epoch;
-        mv.dead.push_back(e);
-        continue;
-      }
-      if (wmoved_[static_cast<size_t>(w0)] == L.epoch || wmoved_[static_cast<size_t>(w1)] == L.epoch) {
-        emoved_[static_cast<size_t>(e)] = L.epoch;
-        mv.moved_ids.push_back(e);
-      }
-    }
-  };
   if (!mv.self)
     for (const auto& fk : Sm.boundary)
-      if (ebnd_[3 * static_cast<size_t>(fk.first) + static_cast<size_t>(fk.second)]) consider(fk.first);
-  for (int f : mv.changed) consider(f);
-  for (int r : mv.reps) faces_of_wedge(r, mv.big, [&](int f, int) { consider(f); });
-  std::vector<Segment> all, moved;
-  auto segment = [&](int e) {
-    Segment sg;
-    sg.w0 = wedge(e / 3, e % 3);
-    sg.w1 = wedge(e / 3, (e % 3 + 1) % 3);
-    sg.edge = e;
-    sg.a = uv(sg.w0);
-    sg.b = uv(sg.w1);
-    return sg;
-  };
-  moved.reserve(mv.moved_ids.size());
-  for (int e : mv.moved_ids) moved.push_back(segment(e));
+      if (ebnd_[3 * static_cast<size_t>(fk.first) + static_cast<size_t>(fk.second)]) classify_edges(mv, fk.first);
+  for (int f : mv.changed) classify_edges(mv, f);
+  for (int r : mv.reps) faces_of_wedge(r, mv.big, [&](int f, int) { classify_edges(mv, f); });
+}
+
+void Engine::classify_edges(Move& mv, int f) {
+  const Lane& L = *mv.lane;
+  for (int k = 0; k < 3; ++k) {
+    const int e = 3 * f + k;
+    if (!ebnd_[static_cast<size_t>(e)] || emoved_[static_cast<size_t>(e)] == L.epoch ||
+        edead_[static_cast<size_t>(e)] == L.epoch)
+      continue;
+    const int w0 = wedge(f, k), w1 = wedge(f, (k + 1) % 3);
+    if ((wrep_[static_cast<size_t>(w0)] == L.epoch || wrep_[static_cast<size_t>(w1)] == L.epoch) &&
+        !is_boundary(f, k, mv.big)) {
+      edead_[static_cast<size_t>(e)] = L.epoch;
+      mv.dead.push_back(e);
+      continue;
+    }
+    if (wmoved_[static_cast<size_t>(w0)] == L.epoch || wmoved_[static_cast<size_t>(w1)] == L.epoch) {
+      emoved_[static_cast<size_t>(e)] = L.epoch;
+      mv.moved_ids.push_back(e);
+    }
+  }
+}
+
+Segment Engine::edge_segment(int e) {
+  Segment sg;
+  sg.w0 = wedge(e / 3, e % 3);
+  sg.w1 = wedge(e / 3, (e % 3 + 1) % 3);
+  sg.edge = e;
+  sg.a = uv(sg.w0);
+  sg.b = uv(sg.w1);
+  return sg;
+}
+
+void Engine::gather_unmoved_segments(const Move& mv, const std::vector<Segment>& moved,
+                                     std::vector<Segment>& all) {
+  Lane& L = *mv.lane;
+  const ChartInfo& Bg = C(mv.big);
+  const ChartInfo& Sm = C(mv.small);
   ++L.seen_stamp;
   auto visit = [&](int e) {
     if (eseen_[static_cast<size_t>(e)] == L.seen_stamp) return;
@@ -705,40 +723,35 @@ const char* Engine::check_boundary(Move& mv) {
     if (!ebnd_[static_cast<size_t>(e)] || emoved_[static_cast<size_t>(e)] == L.epoch ||
         edead_[static_cast<size_t>(e)] == L.epoch)
       return;
-    all.push_back(segment(e));
+    all.push_back(edge_segment(e));
   };
   // The smaller chart's unmoved segments (none after a rigid alignment, kept for safety).
   if (!mv.self)
     for (const auto& [f, k] : Sm.boundary) visit(3 * f + k);
-  if (!moved.empty()) {
-    std::vector<std::array<int, 4>> qr;
-    qr.reserve(moved.size());
-    double ncells = 0;
-    for (const Segment& sg : moved) {
-      qr.push_back(query_cells(sg.a.cwiseMin(sg.b), sg.a.cwiseMax(sg.b), (sg.b - sg.a).norm()));
-      ncells += CellGrid::cell_count(qr.back());
-    }
-    if (ncells > static_cast<double>(Bg.boundary.size())) {
-      for (const auto& [f, k] : Bg.boundary) visit(3 * f + k);
-    } else {
-      Bg.segs.query(qr, visit);
-    }
+  if (moved.empty()) return;
+  std::vector<std::array<int, 4>> qr;
+  qr.reserve(moved.size());
+  double ncells = 0;
+  for (const Segment& sg : moved) {
+    qr.push_back(query_cells(sg.a.cwiseMin(sg.b), sg.a.cwiseMax(sg.b), (sg.b - sg.a).norm()));
+    ncells += CellGrid::cell_count(qr.back());
   }
-  // Only a crossing the move added counts (as for triangles in check_triangles): two boundary
-  // segments of faces that were in one chart and crossed before the move are an input overlap.
-  Before before;
-  auto is_new = [&](const Segment& x, const Segment& y) {
-    if (x.edge < 0 || y.edge < 0 || !same_chart_before(mv, x.edge / 3, y.edge / 3)) return true;
-    load_before(L, before);
-    const Tri2 tx = tri2_before(before, x.edge / 3), ty = tri2_before(before, y.edge / 3);
-    const size_t kx = static_cast<size_t>(x.edge % 3), ky = static_cast<size_t>(y.edge % 3);
-    return !segments_cross(tx.p[kx], tx.p[(kx + 1) % 3], ty.p[ky], ty.p[(ky + 1) % 3]);
-  };
-  return any_crossing(moved, all, is_new) ? "overlap" : nullptr;
+  if (ncells > static_cast<double>(Bg.boundary.size())) {
+    for (const auto& [f, k] : Bg.boundary) visit(3 * f + k);
+  } else {
+    Bg.segs.query(qr, visit);
+  }
+}
+
+bool Engine::crossing_is_new(const Move& mv, Before& b, const Segment& x, const Segment& y) const {
+  if (x.edge < 0 || y.edge < 0 || !same_chart_before(mv, x.edge / 3, y.edge / 3)) return true;
+  load_before(*mv.lane, b);
+  const Tri2 tx = tri2_before(b, x.edge / 3), ty = tri2_before(b, y.edge / 3);
+  const size_t kx = static_cast<size_t>(x.edge % 3), ky = static_cast<size_t>(y.edge % 3);
+  return !segments_cross(tx.p[kx], tx.p[(kx + 1) % 3], ty.p[ky], ty.p[(ky + 1) % 3]);
 }
 
 const char* Engine::check_triangles(const Move& mv) {
-  Lane& L = *mv.lane;
   // Every moved or changed triangle against every other triangle of the merged chart. The boundary
   // and fan tests miss overlaps that neither cross a boundary nor wrap a fan seen by this merge:
   // another sheet of a multi-sheeted input chart, or a chart whose fan the earlier merges closed
@@ -747,9 +760,19 @@ const char* Engine::check_triangles(const Move& mv) {
   // stay put, the smaller chart's move rigidly together), so testing every pair with a moved
   // triangle means no merge adds an overlapping pair.
   // note: conservative: an input overlap among the moved triangles also rejects the merge.
-  const ChartInfo& Bg = C(mv.big);
   std::vector<Tri2> mt, rest;
   Vec2 lo(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()), hi = -lo;
+  const size_t rigid = collect_moved_triangles(mv, mt, lo, hi);
+  gather_triangles_near(mv, mt, lo, hi, rest);
+  // Only a pair the move added counts: an input chart's own overlapping triangles (multi-sheeted
+  // photogrammetry charts) that keep overlapping do not refuse every move touching them.
+  Before before;
+  auto is_new = [&](const Tri2& x, const Tri2& y) { return overlap_is_new(mv, before, x, y); };
+  return any_triangle_overlap(mt, rest, rigid, is_new) ? "overlap" : nullptr;
+}
+
+size_t Engine::collect_moved_triangles(const Move& mv, std::vector<Tri2>& mt, Vec2& lo, Vec2& hi) {
+  const Lane& L = *mv.lane;
   auto grow = [&](const Tri2& t) {
     for (const Vec2& q : t.p) {
       lo = lo.cwiseMin(q);
@@ -775,6 +798,13 @@ const char* Engine::check_triangles(const Move& mv) {
       mt.push_back(tri2(f));
       grow(mt.back());
     }
+  return rigid;
+}
+
+void Engine::gather_triangles_near(const Move& mv, const std::vector<Tri2>& mt, const Vec2& lo, const Vec2& hi,
+                                   std::vector<Tri2>& rest) {
+  Lane& L = *mv.lane;
+  const ChartInfo& Bg = C(mv.big);
   // Only the bigger chart's unchanged triangles whose box meets the moved triangles' box can overlap
   // them. Candidates come from its triangle grid, queried with each moved triangle's box widened by
   // more than triangles_overlap's touching tolerance (1e-7 x the longest edge of the pair; grid
@@ -790,20 +820,8 @@ const char* Engine::check_triangles(const Move& mv) {
       return;
     rest.push_back(tri2(f));
   };
-  std::vector<std::array<int, 4>> qr;
-  qr.reserve(mt.size());
   double ncells = 0;
-  for (const Tri2& t : mt) {
-    Vec2 a = t.p[0], b = t.p[0];
-    double l = 0;
-    for (int k = 0; k < 3; ++k) {
-      a = a.cwiseMin(t.p[static_cast<size_t>(k)]);
-      b = b.cwiseMax(t.p[static_cast<size_t>(k)]);
-      l = std::max(l, (t.p[static_cast<size_t>(k)] - t.p[static_cast<size_t>((k + 1) % 3)]).norm());
-    }
-    qr.push_back(query_cells(a, b, l));
-    ncells += CellGrid::cell_count(qr.back());
-  }
+  const std::vector<std::array<int, 4>> qr = triangle_query_cells(mt, ncells);
   if (ncells > static_cast<double>(Bg.faces.size())) {
     for (int f : Bg.faces) keep(f);
   } else {
@@ -815,11 +833,23 @@ const char* Engine::check_triangles(const Move& mv) {
     };
     Bg.tris.query(qr, visit);
   }
-  // Only a pair the move added counts: an input chart's own overlapping triangles (multi-sheeted
-  // photogrammetry charts) that keep overlapping do not refuse every move touching them.
-  Before before;
-  auto is_new = [&](const Tri2& x, const Tri2& y) { return overlap_is_new(mv, before, x, y); };
-  return any_triangle_overlap(mt, rest, rigid, is_new) ? "overlap" : nullptr;
+}
+
+std::vector<std::array<int, 4>> Engine::triangle_query_cells(const std::vector<Tri2>& mt, double& ncells) const {
+  std::vector<std::array<int, 4>> qr;
+  qr.reserve(mt.size());
+  for (const Tri2& t : mt) {
+    Vec2 a = t.p[0], b = t.p[0];
+    double l = 0;
+    for (int k = 0; k < 3; ++k) {
+      a = a.cwiseMin(t.p[static_cast<size_t>(k)]);
+      b = b.cwiseMax(t.p[static_cast<size_t>(k)]);
+      l = std::max(l, (t.p[static_cast<size_t>(k)] - t.p[static_cast<size_t>((k + 1) % 3)]).norm());
+    }
+    qr.push_back(query_cells(a, b, l));
+    ncells += CellGrid::cell_count(qr.back());
+  }
+  return qr;
 }
 
 void Engine::commit(Move& mv) {

@@ -66,22 +66,86 @@ double sd_total(const LocalProblem& p) {
   return e;
 }
 
+namespace {
+
+/// Untangles an inverted start by a few ARAP steps (symmetric Dirichlet is infinite on inverted
+/// triangles); false, with r's failure set, when triangles stay inverted.
+bool untangle_start(LocalProblem& p, int iterations, SolveResult& r) {
+  if (count_inverted(p) == 0) return true;
+  // note: the weld can invert thin triangles at the seam; symmetric Dirichlet is infinite there,
+  // so a few ARAP steps (which accept inverted input) look for an injective start first.
+  ArapSettings as;
+  as.iterations = iterations;
+  ArapSolver(as).solve(p);
+  if (count_inverted(p) == 0) return true;
+  r.ok = false;
+  r.failure = "could not untangle inverted triangles";
+  return false;
+}
+
+/// The gradient g and the projected Hessian's entries (trip, with a tiny diagonal shift) of the
+/// weighted energy over the n free vertices (coordinates 2 v, 2 v + 1); D holds each triangle's
+/// gradient operator.
+void assemble_newton(const LocalProblem& p, const std::vector<Mat46>& D, int n, Eigen::VectorXd& g,
+                     std::vector<Eigen::Triplet<double>>& trip) {
+  g.setZero();
+  trip.clear();
+  double diag = 0;
+  for (size_t t = 0; t < p.tri.size(); ++t) {
+    const Mat2 F = deformation_gradient(p, t);
+    Eigen::Vector4d gF;
+    Eigen::Matrix4d HF;
+    sd_gradient_hessian(F, gF, HF);
+    const Eigen::Matrix<double, 6, 1> gl = p.weight[t] * D[t].transpose() * gF;
+    const Eigen::Matrix<double, 6, 6> Hl = p.weight[t] * D[t].transpose() * HF * D[t];
+    for (int a = 0; a < 6; ++a) {
+      const int va = p.tri[t][static_cast<size_t>(a / 2)];
+      if (va >= n) continue;
+      g[2 * va + a % 2] += gl[a];
+      for (int b = 0; b < 6; ++b) {
+        const int vb = p.tri[t][static_cast<size_t>(b / 2)];
+        if (vb >= n) continue;
+        trip.emplace_back(2 * va + a % 2, 2 * vb + b % 2, Hl(a, b));
+      }
+      diag += Hl(a, a);
+    }
+  }
+  // note: a tiny diagonal shift keeps the system definite when the free region has no pinned
+  // neighbour (its rigid motions are then a null space of the energy).
+  const double shift = 1e-10 * diag / (2 * n);
+  for (int i = 0; i < 2 * n; ++i) trip.emplace_back(i, i, shift);
+}
+
+/// Armijo backtracking along dir from the flip-free step cap (at most 40 halvings; the start is
+/// restored when none is accepted). Updates E to the accepted energy; true when it decreased.
+bool line_search(LocalProblem& p, const Eigen::VectorXd& dir, double slope, int n, std::vector<Vec2>& x0,
+                 double& E) {
+  double step = std::min(1.0, 0.9 * max_injective_step(p, dir));
+  for (int i = 0; i < n; ++i) x0[static_cast<size_t>(i)] = p.x[static_cast<size_t>(i)];
+  bool moved = false;
+  for (int ls = 0; ls < 40; ++ls) {
+    for (int i = 0; i < n; ++i)
+      p.x[static_cast<size_t>(i)] = x0[static_cast<size_t>(i)] + step * Vec2(dir[2 * i], dir[2 * i + 1]);
+    const double En = sd_total(p);
+    if (En <= E + 1e-4 * step * slope) {
+      moved = E - En > 0;
+      E = En;
+      break;
+    }
+    step *= 0.5;
+    if (ls == 39)
+      for (int i = 0; i < n; ++i) p.x[static_cast<size_t>(i)] = x0[static_cast<size_t>(i)];
+  }
+  return moved;
+}
+
+}  // namespace
+
 SolveResult SdNewtonSolver::solve(LocalProblem& p) {
   SolveResult r;
   double wsum = 0;
   for (double w : p.weight) wsum += w;
-  if (count_inverted(p) > 0) {
-    // note: the weld can invert thin triangles at the seam; symmetric Dirichlet is infinite there,
-    // so a few ARAP steps (which accept inverted input) look for an injective start first.
-    ArapSettings as;
-    as.iterations = s_.untangle_iterations;
-    ArapSolver(as).solve(p);
-    if (count_inverted(p) > 0) {
-      r.ok = false;
-      r.failure = "could not untangle inverted triangles";
-      return r;
-    }
-  }
+  if (!untangle_start(p, s_.untangle_iterations, r)) return r;
   const int n = p.num_free;
   double E = sd_total(p);
   if (n == 0 || p.tri.empty()) {
@@ -97,32 +161,7 @@ SolveResult SdNewtonSolver::solve(LocalProblem& p) {
   Eigen::SparseMatrix<double> H(2 * n, 2 * n);
   std::vector<Vec2> x0(static_cast<size_t>(n));
   for (int it = 0; it < s_.iterations; ++it) {
-    g.setZero();
-    trip.clear();
-    double diag = 0;
-    for (size_t t = 0; t < p.tri.size(); ++t) {
-      const Mat2 F = deformation_gradient(p, t);
-      Eigen::Vector4d gF;
-      Eigen::Matrix4d HF;
-      sd_gradient_hessian(F, gF, HF);
-      const Eigen::Matrix<double, 6, 1> gl = p.weight[t] * D[t].transpose() * gF;
-      const Eigen::Matrix<double, 6, 6> Hl = p.weight[t] * D[t].transpose() * HF * D[t];
-      for (int a = 0; a < 6; ++a) {
-        const int va = p.tri[t][static_cast<size_t>(a / 2)];
-        if (va >= n) continue;
-        g[2 * va + a % 2] += gl[a];
-        for (int b = 0; b < 6; ++b) {
-          const int vb = p.tri[t][static_cast<size_t>(b / 2)];
-          if (vb >= n) continue;
-          trip.emplace_back(2 * va + a % 2, 2 * vb + b % 2, Hl(a, b));
-        }
-        diag += Hl(a, a);
-      }
-    }
-    // note: a tiny diagonal shift keeps the system definite when the free region has no pinned
-    // neighbour (its rigid motions are then a null space of the energy).
-    const double shift = 1e-10 * diag / (2 * n);
-    for (int i = 0; i < 2 * n; ++i) trip.emplace_back(i, i, shift);
+    assemble_newton(p, D, n, g, trip);
     H.setFromTriplets(trip.begin(), trip.end());
     if (!analysed) {
       ldlt.analyzePattern(H);
@@ -134,23 +173,7 @@ SolveResult SdNewtonSolver::solve(LocalProblem& p) {
     const double slope = g.dot(dir);  // < 0 for a descent direction
     ++r.iterations;
     if (!(slope < 0) || -slope < s_.tolerance * E) break;
-    double step = std::min(1.0, 0.9 * max_injective_step(p, dir));
-    for (int i = 0; i < n; ++i) x0[static_cast<size_t>(i)] = p.x[static_cast<size_t>(i)];
-    bool moved = false;
-    for (int ls = 0; ls < 40; ++ls) {
-      for (int i = 0; i < n; ++i)
-        p.x[static_cast<size_t>(i)] = x0[static_cast<size_t>(i)] + step * Vec2(dir[2 * i], dir[2 * i + 1]);
-      const double En = sd_total(p);
-      if (En <= E + 1e-4 * step * slope) {
-        moved = E - En > 0;
-        E = En;
-        break;
-      }
-      step *= 0.5;
-      if (ls == 39)
-        for (int i = 0; i < n; ++i) p.x[static_cast<size_t>(i)] = x0[static_cast<size_t>(i)];
-    }
-    if (!moved) break;
+    if (!line_search(p, dir, slope, n, x0, E)) break;
   }
   r.energy = wsum > 0 ? E / wsum : 0;
   r.ok = std::isfinite(E);
