@@ -356,11 +356,12 @@ class RasterPage {
     struct Cursor {
       const RunMask* m;
       int y;  ///< next candidate row (every lower row ruled out); y + m->h > height_: none left
+      int killer;  ///< page row where its last test failed (-1: none yet)
     };
     std::array<Cursor, 4> cur{};
     size_t n = 0;
     for (const RunMask& m : masks)
-      if (!m.duplicate && n < cur.size()) cur[n++] = Cursor{&m, start_row(m)};
+      if (!m.duplicate && n < cur.size()) cur[n++] = Cursor{&m, start_row(m), -1};
     Fit f;
     for (;;) {
       size_t best = n;  // the live cursor with the lowest top, ties to the lower index
@@ -370,7 +371,7 @@ class RasterPage {
           best = i;
       if (best == n) break;
       Cursor& c = cur[best];
-      const int x = leftmost_at(*c.m, c.y);
+      const int x = leftmost_at(*c.m, c.y, c.killer);
       if (x >= 0) {
         f.q = static_cast<int>(c.m - masks.data());
         f.x = x;
@@ -489,18 +490,35 @@ class RasterPage {
   }
 
   /// Leftmost x where m fits with its lower-left corner at row y, or -1.
+  /// killer: in, the page row whose check failed the mask's previous test (any value: none); out,
+  /// the page row of the check that fails this test (unchanged when m fits).
   /// note: the set of offsets where every run of m lies in a free run, as sorted intervals,
   /// intersected run by run (in m.checks order: widest, bottom, top, then spread rows) until it is
   /// empty or every run was checked; each intersection touches only the free runs in its span.
-  int leftmost_at(const RunMask& m, int y) const {
+  /// note: the runs on the previous test's failing page row go second: the rows tested one after
+  /// the other mostly fail on the same obstacle (t016_L19: 35M run checks for 9.2M rows tested,
+  /// the first check almost never empty, the core rectangle fitting at 94% of the failed rows).
+  /// The set intersected is the same in any order, so the answer is too.
+  int leftmost_at(const RunMask& m, int y, int& killer) const {
     fit(cand_, 1);
     cand_[0] = Run{0, width_ - m.w + 1};
     size_t nx = 1;
-    for (const auto& [r, a, len] : m.checks) {
+    auto check = [&](int r, int a, int len) {
       const size_t yr = static_cast<size_t>(y + r);
-      if (yr >= free_.size()) continue;  // an empty row
+      if (yr >= free_.size()) return true;  // an empty row
       nx = narrow(free_[yr], a, len, nx);
-      if (nx == 0) return -1;
+      if (nx == 0) killer = y + r;
+      return nx != 0;
+    };
+    const int first = std::get<0>(m.checks.front());
+    const int hint = killer - y >= 0 && killer - y < m.h && killer - y != first ? killer - y : -1;
+    if (!check(first, std::get<1>(m.checks.front()), std::get<2>(m.checks.front()))) return -1;
+    if (hint >= 0)
+      for (const auto& [a, len] : m.rows[static_cast<size_t>(hint)])
+        if (!check(hint, a, len)) return -1;
+    for (size_t i = 1; i < m.checks.size(); ++i) {
+      const auto& [r, a, len] = m.checks[i];
+      if (r != hint && !check(r, a, len)) return -1;
     }
     for (size_t i = 0; i < nx; ++i) {  // the leftmost offset on the block grid
       const int x = m.grid.up_x(cand_[i].a);
