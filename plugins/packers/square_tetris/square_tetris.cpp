@@ -1052,25 +1052,16 @@ class SquareTetris : public Packer {
     long long outline = 0, padded = 0;  ///< outline cells before and after dilation (tail masks)
   };
 
-  /// like: when given (a trial's packing against an earlier one), only like's tail order and page
-  /// width are packed, without refinement; otherwise every order and width. bar (> 0, with like):
-  /// the caller keeps the packing only as one page of at most bar texels^2, so it stops as soon as
-  /// it cannot be (its result is then marked losing, TrialBound::lose).
-  Packed pack_all(StageContext& ctx, const CommonSettings& s, const Packed* like = nullptr, double bar = -1) const {
-    const std::string name = "packers.square_tetris";
-    Packed out;
-    out.in = packing::prepare_charts(ctx, s, name);
-    const PackInput& in = out.in;
-    packing::check_chart_sizes(in, s, name);
-    std::vector<int> order = packing::order_by_area(in, s);
+  /// Rectangles: charts whose padded box is at least tail_side^2 and whose outline fills at least
+  /// rect_min_fill of their box; every other chart joins the outline tail. Moves the rectangles to
+  /// the front of `order` (both groups keep the decreasing-area order) and returns their count.
+  /// note: big irregular charts (a scan's peel-like charts, L-shaped merged facades) waste their
+  /// box corners as rectangles (docs/packers.md).
+  /// note: decided side by side, one chart per item (the big charts' rasters: 60 charts with 78% of
+  /// the 1M factory's faces), then partitioned in order.
+  size_t split_rectangles(const PackInput& in, const CommonSettings& s, std::vector<int>& order) const {
     const long long tail_side = options().get_int("tail_side");
     const double rect_min_fill = options().get_double("rect_min_fill");
-    // Rectangles: charts whose padded box is at least tail_side^2 and whose outline fills at least
-    // rect_min_fill of their box; every other chart joins the outline tail (both groups keep the
-    // decreasing-area order). note: big irregular charts (a scan's peel-like charts, L-shaped
-    // merged facades) waste their box corners as rectangles (docs/packers.md).
-    // note: decided side by side, one chart per item (the big charts' rasters: 60 charts with 78% of
-    // the 1M factory's faces), then partitioned in order.
     std::vector<uint8_t> rect_flag(in.charts.size(), 0);
     parallel_for(order.size(), [&](size_t n) {
       const PackChart& c = in.charts[static_cast<size_t>(order[n])];
@@ -1082,9 +1073,23 @@ class SquareTetris : public Packer {
       }
       rect_flag[static_cast<size_t>(order[n])] = r ? 1 : 0;
     });
-    const size_t tail = static_cast<size_t>(
+    return static_cast<size_t>(
         std::stable_partition(order.begin(), order.end(), [&](int id) { return rect_flag[static_cast<size_t>(id)] != 0; }) -
         order.begin());
+  }
+
+  /// like: when given (a trial's packing against an earlier one), only like's tail order and page
+  /// width are packed, without refinement; otherwise every order and width. bar (> 0, with like):
+  /// the caller keeps the packing only as one page of at most bar texels^2, so it stops as soon as
+  /// it cannot be (its result is then marked losing, TrialBound::lose).
+  Packed pack_all(StageContext& ctx, const CommonSettings& s, const Packed* like = nullptr, double bar = -1) const {
+    const std::string name = "packers.square_tetris";
+    Packed out;
+    out.in = packing::prepare_charts(ctx, s, name);
+    const PackInput& in = out.in;
+    packing::check_chart_sizes(in, s, name);
+    std::vector<int> order = packing::order_by_area(in, s);
+    const size_t tail = split_rectangles(in, s, order);
     const long long tail_max = options().get_int("tail_max_charts");
     const size_t tail_charts = order.size() - tail;
     const bool tail_skipped = tail_max > 0 && tail_charts > static_cast<size_t>(tail_max);
