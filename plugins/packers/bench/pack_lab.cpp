@@ -199,6 +199,131 @@ void print_new_pairs(const char* what, const OverlapSplit& before, const Overlap
   }
 }
 
+/// Reads MODEL: any model file texdefrag reads, or glTF files sharing an atlas joined by '+'.
+LoadedModel read_model(const std::string& model_arg) {
+  // note: "A.glb+B.glb+..." reads glTF files sharing an atlas as one model, as a tileset run does.
+  if (model_arg.find('+') == std::string::npos) return format_for_input(model_arg).read(model_arg);
+  std::vector<GltfInput> group;
+  std::stringstream ms(model_arg);
+  std::string part;
+  while (std::getline(ms, part, '+')) group.push_back(GltfInput{part, {}, ""});
+  return GltfFormat().read_group(group, std::filesystem::path(group[0].path).parent_path().string());
+}
+
+/// The merged atlas: read from `cache` when it exists, else made by cfg's detector and merger on
+/// ctx (ctx.atlas = the input charts) and written there.
+void merged_atlas(StageContext& ctx, const PipelineConfig& cfg, const std::string& cache) {
+  if (std::filesystem::exists(cache)) {
+    ctx.atlas = load_atlas(cache);
+    return;
+  }
+  Registry& reg = Registry::instance();
+  json node = json::object();
+  ctx.report = &node;
+  for (const StageConfig* sc : {&cfg.detector, &cfg.merger}) {
+    auto st = reg.create(sc->type);
+    st->set_options(sc->options);
+    if (auto* d = dynamic_cast<Detector*>(st.get())) d->detect(ctx);
+    if (auto* m = dynamic_cast<Merger*>(st.get())) m->merge(ctx);
+  }
+  ctx.report = nullptr;
+  save_atlas(cache, ctx.atlas);
+}
+
+/// The overlapping pairs of the input and the merged atlas (PACK_LAB_OVERLAPS).
+void print_input_overlaps(const TexturedMesh& mesh, const ChartSet& charts, const Atlas& merged) {
+  const OverlapSplit in = overlap_split(mesh, charts.atlas, nullptr);
+  const OverlapSplit mg = overlap_split(mesh, merged, nullptr);
+  std::printf("overlaps input: same-chart %zu cross-chart %zu zero-area %zu; merged: same %zu cross %zu zero %zu\n",
+              in.same_chart, in.cross_chart, in.zero_area, mg.same_chart, mg.cross_chart, mg.zero_area);
+  std::printf("pairs inside charts with area > 1e-8/1e-6/1e-4: input %zu/%zu/%zu merged %zu/%zu/%zu\n", in.above[0],
+              in.above[1], in.above[2], mg.above[0], mg.above[1], mg.above[2]);
+  print_new_pairs("merger", in, mg, charts.atlas, merged, nullptr, 12);
+}
+
+/// A PACKER argument: stage name and options ("NAME[:KEY=VALUE,...]", values in JSON).
+std::pair<std::string, json> parse_packer_spec(const std::string& spec) {
+  std::string name = spec, opts;
+  const auto colon = spec.find(':');
+  if (colon != std::string::npos) { name = spec.substr(0, colon); opts = spec.substr(colon + 1); }
+  json o = json::object();
+  std::stringstream ss(opts);
+  std::string kv;
+  while (std::getline(ss, kv, ',')) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos) throw std::runtime_error("pack_lab: bad option " + kv);
+    o[kv.substr(0, eq)] = json::parse(kv.substr(eq + 1));
+  }
+  return {name, o};
+}
+
+/// FNV-1a of a layout: page sizes, chart pages, wedge UVs (bit for bit).
+uint64_t layout_hash(const Layout& layout) {
+  uint64_t h = 1469598103934665603ull;
+  auto mix = [&](const void* p, size_t n) {
+    for (size_t k = 0; k < n; ++k) h = (h ^ static_cast<const unsigned char*>(p)[k]) * 1099511628211ull;
+  };
+  for (const auto& ps : layout.pages) { mix(&ps.width, sizeof ps.width); mix(&ps.height, sizeof ps.height); }
+  mix(layout.chart_page.data(), layout.chart_page.size() * sizeof(int));
+  for (const Vec2& p : layout.wedge_uv) { const double xy[2] = {p.x(), p.y()}; mix(xy, sizeof xy); }
+  return h;
+}
+
+/// What every packing of one run shares: the model, its input charts and the merged atlas.
+struct Lab {
+  const TexturedMesh* mesh = nullptr;
+  const Topology* topology = nullptr;
+  const ChartSet* charts = nullptr;
+  const Atlas* merged = nullptr;
+  std::string model;  ///< the model's file stem
+  double in_mp = 0;   ///< input pages, megapixels
+  bool overlaps = false;
+};
+
+/// Packs the merged atlas with one PACKER argument and prints its line (see the top of the file).
+void run_packer(const Lab& lab, const std::string& spec) {
+  const auto [name, o] = parse_packer_spec(spec);
+  Registry& reg = Registry::instance();
+  const StageInfo* info = reg.find(name);
+  if (!info) throw std::runtime_error("pack_lab: no stage " + name);
+  auto st = reg.create(name);
+  st->set_options(default_options(*info, o));
+  StageContext pc;
+  pc.mesh = lab.mesh;
+  pc.topology = lab.topology;
+  pc.input_charts = lab.charts;
+  pc.atlas = *lab.merged;
+  pc.progress = [](const std::string&, double) { return true; };
+  json rep = json::object();
+  pc.report = &rep;
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::clock_t c0 = std::clock();
+  dynamic_cast<Packer&>(*st).pack(pc);
+  const double cpu_ms = 1000.0 * static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  double mp = 0;
+  for (const auto& ps : pc.layout.pages) mp += static_cast<double>(ps.width) * ps.height / 1e6;
+  std::printf("%s\t%s\t%d\t%.3f\t%.3f\t%.2f\t%.0f\t%.0f", lab.model.c_str(), spec.c_str(), lab.merged->num_charts,
+              rep.value("packing_efficiency", 0.0), mp, lab.in_mp, ms, cpu_ms);
+  if (std::getenv("PACK_LAB_HASH"))
+    std::printf("\tlayout %016llx", static_cast<unsigned long long>(layout_hash(pc.layout)));
+  if (std::getenv("PACK_LAB_CHARTS"))
+    std::printf("\texact %d free-rotated %d", rep.value("charts_exact", 0), rep.value("charts_rotated_free", 0));
+  // square_tetris: UV area / outline texels / dilated outline texels (where the page goes)
+  if (rep.contains("outline_texels"))
+    std::printf("\tuv/outline %.3f\toutline/padded %.3f\tpadded/page %.3f",
+                rep.value("chart_uv_area", 0.0) / rep["outline_texels"].get<double>(),
+                rep["outline_texels"].get<double>() / rep["padded_outline_texels"].get<double>(),
+                rep["padded_outline_texels"].get<double>() / (mp * 1e6));
+  if (lab.overlaps) {
+    const OverlapSplit ov = overlap_split(*lab.mesh, pc.atlas, &pc.layout);
+    std::printf("\tpacked overlaps: same %zu cross %zu zero %zu\n", ov.same_chart, ov.cross_chart, ov.zero_area);
+    std::printf("packed pairs with area > 1e-8/1e-6/1e-4: %zu/%zu/%zu\n", ov.above[0], ov.above[1], ov.above[2]);
+    print_new_pairs("packer", overlap_split(*lab.mesh, *lab.merged, nullptr), ov, *lab.merged, pc.atlas, &pc.layout, 5);
+  }
+  std::printf("\n");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -209,115 +334,23 @@ int main(int argc, char** argv) {
   try {
     if (const char* t = std::getenv("PACK_LAB_THREADS")) set_thread_count(std::atoi(t));
     const PipelineConfig cfg = load_config(argv[1]);
-    // note: "A.glb+B.glb+..." reads glTF files sharing an atlas as one model, as a tileset run does.
-    const std::string model_arg = argv[2];
-    LoadedModel loaded;
-    if (model_arg.find('+') != std::string::npos) {
-      std::vector<GltfInput> group;
-      std::stringstream ms(model_arg);
-      std::string part;
-      while (std::getline(ms, part, '+')) group.push_back(GltfInput{part, {}, ""});
-      loaded = GltfFormat().read_group(group, std::filesystem::path(group[0].path).parent_path().string());
-    } else {
-      loaded = format_for_input(model_arg).read(model_arg);
-    }
+    const LoadedModel loaded = read_model(argv[2]);
     const TexturedMesh& mesh = loaded.mesh;
     const Topology topo = build_topology(mesh);
     const ChartSet charts = build_charts(mesh, topo);
-    Registry& reg = Registry::instance();
-    reg.load_plugins();
+    Registry::instance().load_plugins();
     StageContext ctx;
     ctx.mesh = &mesh;
     ctx.topology = &topo;
     ctx.input_charts = &charts;
     ctx.atlas = charts.atlas;
     ctx.progress = [](const std::string&, double) { return true; };
-    const std::string cache = argv[3];
-    if (std::filesystem::exists(cache)) {
-      ctx.atlas = load_atlas(cache);
-    } else {
-      json node = json::object();
-      ctx.report = &node;
-      for (const StageConfig* sc : {&cfg.detector, &cfg.merger}) {
-        auto st = reg.create(sc->type);
-        st->set_options(sc->options);
-        if (auto* d = dynamic_cast<Detector*>(st.get())) d->detect(ctx);
-        if (auto* m = dynamic_cast<Merger*>(st.get())) m->merge(ctx);
-      }
-      save_atlas(cache, ctx.atlas);
-    }
-    double in_mp = 0;
-    for (const Page& p : mesh.pages) in_mp += static_cast<double>(p.width) * p.height / 1e6;
-    const std::string model = std::filesystem::path(argv[2]).stem().string();
-    const bool overlaps = std::getenv("PACK_LAB_OVERLAPS") != nullptr;
-    if (overlaps) {
-      const OverlapSplit in = overlap_split(mesh, charts.atlas, nullptr);
-      const OverlapSplit mg = overlap_split(mesh, ctx.atlas, nullptr);
-      std::printf("overlaps input: same-chart %zu cross-chart %zu zero-area %zu; merged: same %zu cross %zu zero %zu\n",
-                  in.same_chart, in.cross_chart, in.zero_area, mg.same_chart, mg.cross_chart, mg.zero_area);
-      std::printf("pairs inside charts with area > 1e-8/1e-6/1e-4: input %zu/%zu/%zu merged %zu/%zu/%zu\n", in.above[0],
-                  in.above[1], in.above[2], mg.above[0], mg.above[1], mg.above[2]);
-      print_new_pairs("merger", in, mg, charts.atlas, ctx.atlas, nullptr, 12);
-    }
-    for (int i = 4; i < argc; ++i) {
-      std::string spec = argv[i], name = spec, opts;
-      const auto colon = spec.find(':');
-      if (colon != std::string::npos) { name = spec.substr(0, colon); opts = spec.substr(colon + 1); }
-      json o = json::object();
-      std::stringstream ss(opts);
-      std::string kv;
-      while (std::getline(ss, kv, ',')) {
-        const auto eq = kv.find('=');
-        if (eq == std::string::npos) throw std::runtime_error("pack_lab: bad option " + kv);
-        o[kv.substr(0, eq)] = json::parse(kv.substr(eq + 1));
-      }
-      const StageInfo* info = reg.find(name);
-      if (!info) throw std::runtime_error("pack_lab: no stage " + name);
-      auto st = reg.create(name);
-      st->set_options(default_options(*info, o));
-      StageContext pc;
-      pc.mesh = &mesh;
-      pc.topology = &topo;
-      pc.input_charts = &charts;
-      pc.atlas = ctx.atlas;
-      pc.progress = ctx.progress;
-      json rep = json::object();
-      pc.report = &rep;
-      const auto t0 = std::chrono::steady_clock::now();
-      const std::clock_t c0 = std::clock();
-      dynamic_cast<Packer&>(*st).pack(pc);
-      const double cpu_ms = 1000.0 * static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
-      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      double mp = 0;
-      for (const auto& ps : pc.layout.pages) mp += static_cast<double>(ps.width) * ps.height / 1e6;
-      std::printf("%s\t%s\t%d\t%.3f\t%.3f\t%.2f\t%.0f\t%.0f", model.c_str(), spec.c_str(), ctx.atlas.num_charts,
-                  rep.value("packing_efficiency", 0.0), mp, in_mp, ms, cpu_ms);
-      if (std::getenv("PACK_LAB_HASH")) {  // FNV-1a of the layout: pages, chart pages, wedge UVs (bit-exact)
-        uint64_t h = 1469598103934665603ull;
-        auto mix = [&](const void* p, size_t n) {
-          for (size_t k = 0; k < n; ++k) h = (h ^ static_cast<const unsigned char*>(p)[k]) * 1099511628211ull;
-        };
-        for (const auto& ps : pc.layout.pages) { mix(&ps.width, sizeof ps.width); mix(&ps.height, sizeof ps.height); }
-        mix(pc.layout.chart_page.data(), pc.layout.chart_page.size() * sizeof(int));
-        for (const Vec2& p : pc.layout.wedge_uv) { const double xy[2] = {p.x(), p.y()}; mix(xy, sizeof xy); }
-        std::printf("\tlayout %016llx", static_cast<unsigned long long>(h));
-      }
-      if (std::getenv("PACK_LAB_CHARTS"))
-        std::printf("\texact %d free-rotated %d", rep.value("charts_exact", 0), rep.value("charts_rotated_free", 0));
-      // square_tetris: UV area / outline texels / dilated outline texels (where the page goes)
-      if (rep.contains("outline_texels"))
-        std::printf("\tuv/outline %.3f\toutline/padded %.3f\tpadded/page %.3f",
-                    rep.value("chart_uv_area", 0.0) / rep["outline_texels"].get<double>(),
-                    rep["outline_texels"].get<double>() / rep["padded_outline_texels"].get<double>(),
-                    rep["padded_outline_texels"].get<double>() / (mp * 1e6));
-      if (overlaps) {
-        const OverlapSplit o = overlap_split(mesh, pc.atlas, &pc.layout);
-        std::printf("\tpacked overlaps: same %zu cross %zu zero %zu\n", o.same_chart, o.cross_chart, o.zero_area);
-        std::printf("packed pairs with area > 1e-8/1e-6/1e-4: %zu/%zu/%zu\n", o.above[0], o.above[1], o.above[2]);
-        print_new_pairs("packer", overlap_split(mesh, ctx.atlas, nullptr), o, ctx.atlas, pc.atlas, &pc.layout, 5);
-      }
-      std::printf("\n");
-    }
+    merged_atlas(ctx, cfg, argv[3]);
+    Lab lab{&mesh, &topo, &charts, &ctx.atlas, std::filesystem::path(argv[2]).stem().string(), 0.0,
+            std::getenv("PACK_LAB_OVERLAPS") != nullptr};
+    for (const Page& p : mesh.pages) lab.in_mp += static_cast<double>(p.width) * p.height / 1e6;
+    if (lab.overlaps) print_input_overlaps(mesh, charts, ctx.atlas);
+    for (int i = 4; i < argc; ++i) run_packer(lab, argv[i]);
   } catch (const std::exception& e) {
     std::cerr << e.what() << "\n";
     return 1;

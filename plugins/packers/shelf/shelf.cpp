@@ -11,6 +11,111 @@
 namespace texdefrag {
 namespace {
 
+using Vec2i = Eigen::Vector2i;
+
+/// Whole-texel bounding boxes [lo, hi) and UV areas of an atlas's charts (a chart without faces
+/// keeps lo = INT32_MAX, hi = INT32_MIN).
+struct ChartBoxes {
+  std::vector<Vec2i> lo, hi;
+  std::vector<double> area;  ///< texels^2, sum of |face UV area|
+  Vec2i size(size_t c) const { return hi[c] - lo[c]; }
+};
+
+ChartBoxes chart_boxes(const Atlas& a) {
+  const size_t nc = static_cast<size_t>(a.num_charts);
+  ChartBoxes b{std::vector<Vec2i>(nc, Vec2i::Constant(INT32_MAX)), std::vector<Vec2i>(nc, Vec2i::Constant(INT32_MIN)),
+               std::vector<double>(nc, 0.0)};
+  for (size_t f = 0; f < a.face_chart.size(); ++f) {
+    const int c = a.face_chart[f];
+    if (c < 0) continue;
+    const size_t ci = static_cast<size_t>(c);
+    b.area[ci] += std::abs(atlas_face_area(a, static_cast<int>(f)));
+    for (int w : a.face_wedge[f]) {
+      const Vec2& p = a.wedge_uv[static_cast<size_t>(w)];
+      b.lo[ci] = b.lo[ci].cwiseMin(Vec2i(static_cast<int>(std::floor(p.x())), static_cast<int>(std::floor(p.y()))));
+      b.hi[ci] = b.hi[ci].cwiseMax(Vec2i(static_cast<int>(std::ceil(p.x())), static_cast<int>(std::ceil(p.y()))));
+    }
+  }
+  return b;
+}
+
+/// The shelves' page width: sqrt of the boxes' padded area, at least the widest padded box, at
+/// most max_size. Throws StageError naming the first chart that does not fit max_size.
+int shelf_width(const ChartBoxes& b, int gutter, int max_size) {
+  double box_area = 0;
+  int widest = 0;
+  for (size_t c = 0; c < b.lo.size(); ++c) {
+    const Vec2i s = b.size(c);
+    if (s.x() + 2 * gutter > max_size || s.y() + 2 * gutter > max_size)
+      throw StageError("packers.shelf: chart " + std::to_string(c) + " is " + std::to_string(s.x()) + "x" +
+                       std::to_string(s.y()) + " texels; with a gutter of " + std::to_string(gutter) +
+                       " it does not fit in max_page_size " + std::to_string(max_size));
+    box_area += static_cast<double>(s.x() + gutter) * (s.y() + gutter);
+    widest = std::max(widest, s.x() + 2 * gutter);
+  }
+  return std::min(max_size, std::max(widest, static_cast<int>(std::ceil(std::sqrt(box_area)))));
+}
+
+/// Chart ids by decreasing box height (ties: id).
+std::vector<int> by_height(const ChartBoxes& b) {
+  std::vector<int> order(b.lo.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int x, int y) {
+    const int hx = b.size(static_cast<size_t>(x)).y(), hy = b.size(static_cast<size_t>(y)).y();
+    return hx != hy ? hx > hy : x < y;
+  });
+  return order;
+}
+
+/// Lays the boxes on shelves of `width`, in `order`, a new page when one is full: fills
+/// L.chart_page and returns each chart's whole-texel move; used: per page, its used extent.
+std::vector<Vec2i> place_on_shelves(const ChartBoxes& b, const std::vector<int>& order, int gutter, int width,
+                                    int max_size, Layout& L, std::vector<Vec2i>& used) {
+  const size_t nc = b.lo.size();
+  L.chart_page.assign(nc, -1);
+  std::vector<Vec2i> shift(nc, Vec2i::Zero());
+  int page = -1, x = 0, y = 0, shelf_h = 0;
+  auto new_page = [&] {
+    ++page;
+    used.emplace_back(0, 0);
+    x = gutter;
+    y = gutter;
+    shelf_h = 0;
+  };
+  if (nc) new_page();
+  for (int c : order) {
+    const size_t ci = static_cast<size_t>(c);
+    const Vec2i s = b.size(ci);
+    if (x + s.x() + gutter > width) {  // next shelf
+      x = gutter;
+      y += shelf_h + gutter;
+      shelf_h = 0;
+    }
+    if (y + s.y() + gutter > max_size) new_page();
+    L.chart_page[ci] = page;
+    shift[ci] = Vec2i(x, y) - b.lo[ci];
+    used[static_cast<size_t>(page)] = used[static_cast<size_t>(page)].cwiseMax(Vec2i(x + s.x() + gutter, y + s.y() + gutter));
+    x += s.x() + gutter;
+    shelf_h = std::max(shelf_h, s.y());
+  }
+  return shift;
+}
+
+/// L.wedge_uv: the atlas's UVs, each wedge of a chart moved by its chart's shift.
+void move_wedges(const Atlas& a, const std::vector<Vec2i>& shift, Layout& L) {
+  L.wedge_uv = a.wedge_uv;
+  std::vector<uint8_t> moved(a.wedge_uv.size(), 0);
+  for (size_t f = 0; f < a.face_chart.size(); ++f) {
+    const int c = a.face_chart[f];
+    if (c < 0) continue;
+    for (int w : a.face_wedge[f])
+      if (!moved[static_cast<size_t>(w)]) {
+        moved[static_cast<size_t>(w)] = 1;
+        L.wedge_uv[static_cast<size_t>(w)] += shift[static_cast<size_t>(c)].cast<double>();
+      }
+  }
+}
+
 class ShelfPacker final : public Packer {
  public:
   static StageInfo info() {
@@ -38,83 +143,16 @@ class ShelfPacker final : public Packer {
     sizing.max_page_size = max_size;
     sizing.page_multiple = static_cast<int>(options().get_int("page_multiple"));
     sizing.power_of_two = options().get_bool("power_of_two");
-    const size_t nc = static_cast<size_t>(a.num_charts);
-
-    // Whole-texel bounding boxes.
-    std::vector<Eigen::Vector2i> lo(nc, Eigen::Vector2i::Constant(INT32_MAX)), hi(nc, Eigen::Vector2i::Constant(INT32_MIN));
-    std::vector<double> area(nc, 0.0);
-    for (size_t f = 0; f < a.face_chart.size(); ++f) {
-      const int c = a.face_chart[f];
-      if (c < 0) continue;
-      area[static_cast<size_t>(c)] += std::abs(atlas_face_area(a, static_cast<int>(f)));
-      for (int w : a.face_wedge[f]) {
-        const Vec2& p = a.wedge_uv[static_cast<size_t>(w)];
-        lo[static_cast<size_t>(c)] = lo[static_cast<size_t>(c)].cwiseMin(Eigen::Vector2i(static_cast<int>(std::floor(p.x())), static_cast<int>(std::floor(p.y()))));
-        hi[static_cast<size_t>(c)] = hi[static_cast<size_t>(c)].cwiseMax(Eigen::Vector2i(static_cast<int>(std::ceil(p.x())), static_cast<int>(std::ceil(p.y()))));
-      }
-    }
-    std::vector<int> order(nc);
-    std::iota(order.begin(), order.end(), 0);
-    double box_area = 0;
-    int widest = 0;
-    for (size_t c = 0; c < nc; ++c) {
-      const Eigen::Vector2i s = hi[c] - lo[c];
-      if (s.x() + 2 * gutter > max_size || s.y() + 2 * gutter > max_size)
-        throw StageError("packers.shelf: chart " + std::to_string(c) + " is " + std::to_string(s.x()) + "x" +
-                         std::to_string(s.y()) + " texels; with a gutter of " + std::to_string(gutter) +
-                         " it does not fit in max_page_size " + std::to_string(max_size));
-      box_area += static_cast<double>(s.x() + gutter) * (s.y() + gutter);
-      widest = std::max(widest, s.x() + 2 * gutter);
-    }
-    std::sort(order.begin(), order.end(), [&](int x, int y) {
-      const int hx = hi[static_cast<size_t>(x)].y() - lo[static_cast<size_t>(x)].y();
-      const int hy = hi[static_cast<size_t>(y)].y() - lo[static_cast<size_t>(y)].y();
-      return hx != hy ? hx > hy : x < y;
-    });
-    const int width = std::min(max_size, std::max(widest, static_cast<int>(std::ceil(std::sqrt(box_area)))));
-
+    const ChartBoxes boxes = chart_boxes(a);
+    const int width = shelf_width(boxes, gutter, max_size);
     Layout& L = ctx.layout;
     L = Layout();
-    L.chart_page.assign(nc, -1);
-    std::vector<Eigen::Vector2i> shift(nc, Eigen::Vector2i::Zero());
-    std::vector<Eigen::Vector2i> used;  // per page: used extent
-    int page = -1, x = 0, y = 0, shelf_h = 0;
-    auto new_page = [&] {
-      ++page;
-      used.emplace_back(0, 0);
-      x = gutter;
-      y = gutter;
-      shelf_h = 0;
-    };
-    if (nc) new_page();
-    for (int c : order) {
-      const Eigen::Vector2i s = hi[static_cast<size_t>(c)] - lo[static_cast<size_t>(c)];
-      if (x + s.x() + gutter > width) {  // next shelf
-        x = gutter;
-        y += shelf_h + gutter;
-        shelf_h = 0;
-      }
-      if (y + s.y() + gutter > max_size) new_page();
-      L.chart_page[static_cast<size_t>(c)] = page;
-      shift[static_cast<size_t>(c)] = Eigen::Vector2i(x, y) - lo[static_cast<size_t>(c)];
-      used[static_cast<size_t>(page)] = used[static_cast<size_t>(page)].cwiseMax(Eigen::Vector2i(x + s.x() + gutter, y + s.y() + gutter));
-      x += s.x() + gutter;
-      shelf_h = std::max(shelf_h, s.y());
-    }
+    std::vector<Vec2i> used;  // per page: used extent
+    const std::vector<Vec2i> shift = place_on_shelves(boxes, by_height(boxes), gutter, width, max_size, L, used);
     for (const auto& u : used)
       L.pages.push_back({packing::round_page_side(u.x(), sizing), packing::round_page_side(u.y(), sizing)});
-    L.wedge_uv = a.wedge_uv;
-    std::vector<uint8_t> moved(a.wedge_uv.size(), 0);
-    for (size_t f = 0; f < a.face_chart.size(); ++f) {
-      const int c = a.face_chart[f];
-      if (c < 0) continue;
-      for (int w : a.face_wedge[f])
-        if (!moved[static_cast<size_t>(w)]) {
-          moved[static_cast<size_t>(w)] = 1;
-          L.wedge_uv[static_cast<size_t>(w)] += shift[static_cast<size_t>(c)].cast<double>();
-        }
-    }
-    double page_area = 0, chart_area = std::accumulate(area.begin(), area.end(), 0.0);
+    move_wedges(a, shift, L);
+    double page_area = 0, chart_area = std::accumulate(boxes.area.begin(), boxes.area.end(), 0.0);
     json sizes = json::array();
     for (const auto& p : L.pages) {
       page_area += static_cast<double>(p.width) * p.height;
@@ -124,7 +162,7 @@ class ShelfPacker final : public Packer {
     r["pages"] = L.pages.size();
     r["page_sizes"] = sizes;
     r["packing_efficiency"] = page_area > 0 ? chart_area / page_area : 0.0;
-    r["charts"] = nc;
+    r["charts"] = boxes.lo.size();
   }
 };
 

@@ -119,14 +119,9 @@ void block_residues(PackChart& c, const Vec2& k, int m, int page_height, int g) 
   }
 }
 
-}  // namespace
-
-PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const std::string& stage) {
-  PackInput in;
-  const Atlas& a = ctx.atlas;
-  in.atlas = &a;
-  in.charts.resize(static_cast<size_t>(std::max(0, a.num_charts)));
-  for (size_t i = 0; i < in.charts.size(); ++i) in.charts[i].id = static_cast<int>(i);
+/// Splits the atlas's faces into in.charts (faces, wedges, corner indices); throws StageError on a
+/// chart id out of range, a missing wedge or a wedge shared by two charts.
+void collect_chart_faces(PackInput& in, const Atlas& a, const std::string& stage) {
   std::vector<int> wedge_chart(a.wedge_uv.size(), -1);
   std::vector<int> wedge_local(a.wedge_uv.size(), -1);
   for (size_t f = 0; f < a.face_chart.size(); ++f) {
@@ -156,75 +151,104 @@ PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const
     c.faces.push_back(static_cast<int>(f));
     c.tris.push_back(t);
   }
+}
 
+/// A chart's anchor: its largest group of grid-exact faces (same quarter turn, same fractional
+/// translation), or area 0 when it has none.
+struct Anchor {
+  double area = 0;         ///< texels^2 of the group's UV area
+  Vec2 t = Vec2::Zero();   ///< translation of the group's first face (uv = R_m(input) + t)
+  int m = 0;               ///< quarter turns from input to working UVs
+  int page_height = 0;     ///< the group's input page height (block grid), 0 without a mesh
+};
+
+/// Sums c.uv_area (face order) and returns c's anchor. Input UVs from ctx.mesh, or the atlas UVs
+/// without a mesh.
+Anchor find_anchor(const StageContext& ctx, PackChart& c) {
+  const Atlas& a = ctx.atlas;
+  // Grid-exact face groups: (quarter turn m, fractional translation) -> UV area, first t and page
+  // height (groups ordered by key, so ties keep the smallest key whatever the face order).
+  std::map<std::tuple<int, long long, long long>, Anchor> groups;
+  for (size_t i = 0; i < c.faces.size(); ++i) {
+    const int f = c.faces[i];
+    Vec2 uv[3], inp[3];
+    for (int k = 0; k < 3; ++k) {
+      uv[k] = a.wedge_uv[static_cast<size_t>(a.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
+      inp[k] = ctx.mesh ? ctx.mesh->corner_texel(static_cast<size_t>(f), k) : uv[k];
+    }
+    const double area = tri_area(uv[0], uv[1], uv[2]);
+    c.uv_area += area;
+    if (area <= 0) continue;
+    for (int m = 0; m < 4; ++m) {
+      const Vec2 t = uv[0] - rotate90(inp[0], m);
+      if ((uv[1] - rotate90(inp[1], m) - t).cwiseAbs().maxCoeff() > kExactTol) continue;
+      if ((uv[2] - rotate90(inp[2], m) - t).cwiseAbs().maxCoeff() > kExactTol) continue;
+      const auto key = std::make_tuple(m, frac_key(t.x()), frac_key(t.y()));
+      const int h = ctx.mesh ? ctx.mesh->pages[static_cast<size_t>(ctx.mesh->faces[static_cast<size_t>(f)].page)].height : 0;
+      groups.try_emplace(key, Anchor{0.0, t, m, h}).first->second.area += area;
+      break;
+    }
+  }
+  Anchor best;
+  for (const auto& g : groups)
+    if (g.second.area > best.area) best = g.second;
+  return best;
+}
+
+/// Sets c.base for an exact chart: its wedges' UVs moved by the anchor's fractional translation,
+/// so that the anchor's input texel grid is the integer grid.
+void set_exact_base(PackChart& c, const Atlas& a, const Vec2& t) {
+  c.grid_offset = Vec2(t.x() - std::floor(t.x()), t.y() - std::floor(t.y()));
+  if (frac_key(t.x()) == 0) c.grid_offset.x() = 0;
+  if (frac_key(t.y()) == 0) c.grid_offset.y() = 0;
+  for (size_t i = 0; i < c.wedges.size(); ++i) c.base[i] = a.wedge_uv[static_cast<size_t>(c.wedges[i])] - c.grid_offset;
+}
+
+/// Sets c.base (and c.angle) for a free chart: its wedges' UVs, rotated to their exact minimum-area
+/// rectangle when s.free_rotation is on and that shrinks the bounding box by more than
+/// s.rotation_gain.
+void set_free_base(PackChart& c, const Atlas& a, const CommonSettings& s) {
+  std::vector<Vec2> pts(c.wedges.size());
+  for (size_t i = 0; i < c.wedges.size(); ++i) pts[i] = a.wedge_uv[static_cast<size_t>(c.wedges[i])];
+  if (s.free_rotation && pts.size() >= 3) {
+    const OrientedRect r = min_area_rect(convex_hull(pts));
+    double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
+    for (const Vec2& p : pts) {
+      xmin = std::min(xmin, p.x());
+      xmax = std::max(xmax, p.x());
+      ymin = std::min(ymin, p.y());
+      ymax = std::max(ymax, p.y());
+    }
+    const double aabb = (xmax - xmin) * (ymax - ymin);
+    if (r.angle != 0 && aabb - r.area() > s.rotation_gain * aabb) c.angle = -r.angle;
+  }
+  for (size_t i = 0; i < c.wedges.size(); ++i) c.base[i] = c.angle != 0 ? rotate(pts[i], c.angle) : pts[i];
+}
+
+/// Prepares chart c (faces already collected): UV area, exactness, base points, boxes, residues.
+void prepare_chart(const StageContext& ctx, const CommonSettings& s, PackChart& c) {
+  const Anchor anchor = find_anchor(ctx, c);
+  c.exact_area = anchor.area;
+  c.exact = anchor.area > 0 && anchor.area >= s.exact_fraction * c.uv_area;
+  c.base.resize(c.wedges.size());
+  if (c.exact) set_exact_base(c, ctx.atlas, anchor.t);
+  else set_free_base(c, ctx.atlas, s);
+  compute_boxes(c);
+  if (c.exact && s.block_grid > 1)
+    block_residues(c, anchor.t - c.grid_offset, anchor.m, anchor.page_height, s.block_grid);
+}
+
+}  // namespace
+
+PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const std::string& stage) {
+  PackInput in;
+  in.atlas = &ctx.atlas;
+  in.charts.resize(static_cast<size_t>(std::max(0, ctx.atlas.num_charts)));
+  for (size_t i = 0; i < in.charts.size(); ++i) in.charts[i].id = static_cast<int>(i);
+  collect_chart_faces(in, ctx.atlas, stage);
   // note: one chart per item, side by side (each writes only its chart); the UV areas are summed
   // afterwards in chart order, so the result does not depend on the thread count.
-  parallel_for(in.charts.size(), [&](size_t ci) {
-    PackChart& c = in.charts[ci];
-    // Grid-exact face groups: (quarter turn m, fractional translation) -> UV area.
-    std::map<std::tuple<int, long long, long long>, double> groups;
-    std::map<std::tuple<int, long long, long long>, Vec2> group_t;
-    std::map<std::tuple<int, long long, long long>, int> group_h;  // input page height (block grid)
-    for (size_t i = 0; i < c.faces.size(); ++i) {
-      const int f = c.faces[i];
-      Vec2 uv[3], inp[3];
-      for (int k = 0; k < 3; ++k) {
-        uv[k] = a.wedge_uv[static_cast<size_t>(a.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
-        inp[k] = ctx.mesh ? ctx.mesh->corner_texel(static_cast<size_t>(f), k) : uv[k];
-      }
-      const double area = tri_area(uv[0], uv[1], uv[2]);
-      c.uv_area += area;
-      if (area <= 0) continue;
-      for (int m = 0; m < 4; ++m) {
-        const Vec2 t = uv[0] - rotate90(inp[0], m);
-        if ((uv[1] - rotate90(inp[1], m) - t).cwiseAbs().maxCoeff() > kExactTol) continue;
-        if ((uv[2] - rotate90(inp[2], m) - t).cwiseAbs().maxCoeff() > kExactTol) continue;
-        const auto key = std::make_tuple(m, frac_key(t.x()), frac_key(t.y()));
-        groups[key] += area;
-        group_t.emplace(key, t);
-        group_h.emplace(key, ctx.mesh ? ctx.mesh->pages[static_cast<size_t>(ctx.mesh->faces[static_cast<size_t>(f)].page)].height : 0);
-        break;
-      }
-    }
-    double best = 0;
-    Vec2 best_t = Vec2::Zero();
-    int best_m = 0, best_h = 0;
-    for (const auto& g : groups)
-      if (g.second > best) {
-        best = g.second;
-        best_t = group_t[g.first];
-        best_m = std::get<0>(g.first);
-        best_h = group_h[g.first];
-      }
-    c.exact_area = best;
-    c.exact = best > 0 && best >= s.exact_fraction * c.uv_area;
-    c.base.resize(c.wedges.size());
-    if (c.exact) {
-      c.grid_offset = Vec2(best_t.x() - std::floor(best_t.x()), best_t.y() - std::floor(best_t.y()));
-      if (frac_key(best_t.x()) == 0) c.grid_offset.x() = 0;
-      if (frac_key(best_t.y()) == 0) c.grid_offset.y() = 0;
-      for (size_t i = 0; i < c.wedges.size(); ++i)
-        c.base[i] = a.wedge_uv[static_cast<size_t>(c.wedges[i])] - c.grid_offset;
-    } else {
-      std::vector<Vec2> pts(c.wedges.size());
-      for (size_t i = 0; i < c.wedges.size(); ++i) pts[i] = a.wedge_uv[static_cast<size_t>(c.wedges[i])];
-      if (s.free_rotation && pts.size() >= 3) {
-        const OrientedRect r = min_area_rect(convex_hull(pts));
-        double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
-        for (const Vec2& p : pts) {
-          xmin = std::min(xmin, p.x());
-          xmax = std::max(xmax, p.x());
-          ymin = std::min(ymin, p.y());
-          ymax = std::max(ymax, p.y());
-        }
-        const double aabb = (xmax - xmin) * (ymax - ymin);
-        if (r.angle != 0 && aabb - r.area() > s.rotation_gain * aabb) c.angle = -r.angle;
-      }
-      for (size_t i = 0; i < c.wedges.size(); ++i) c.base[i] = c.angle != 0 ? rotate(pts[i], c.angle) : pts[i];
-    }
-    compute_boxes(c);
-    if (c.exact && s.block_grid > 1) block_residues(c, best_t - c.grid_offset, best_m, best_h, s.block_grid);
-  });
+  parallel_for(in.charts.size(), [&](size_t ci) { prepare_chart(ctx, s, in.charts[ci]); });
   for (const PackChart& c : in.charts) in.total_uv_area += c.uv_area;
   return in;
 }
