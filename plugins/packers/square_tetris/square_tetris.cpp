@@ -29,6 +29,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <string>
 #include <tuple>
 
@@ -231,18 +232,32 @@ class PageState {
 };
 
 
-/// Outline of a chart in one quarter turn, dilated by the gutter: per row, runs [a, a + len) of
-/// covered cells (relative to the padded box's lower-left corner).
-struct RunMask {
-  int w = 0, h = 0;
+/// The cells of a dilated outline mask: per row, runs [a, a + len) of covered cells (relative to
+/// the padded box's lower-left corner), and what the search derives from them.
+struct RunCells {
   std::vector<std::vector<std::pair<int, int>>> rows;  ///< (a, len) per row
-  bool duplicate = false;
   int wide_row = 0, wide_a = 0, wide_len = 0;  ///< the longest run (checked first)
   std::vector<std::pair<int, int>> longest;     ///< (row, its longest run), longest first
   std::vector<std::tuple<int, int, int>> checks;  ///< every run (row, a, len), in checking order
-  int shape = -1;  ///< masks with the same cells share a shape id (RasterPage's resume rows)
   int core_w = 0, core_h = 0, core_y = 0;  ///< a solid rectangle inside the mask: size, lowest row
   long long outline_cells = 0, cells = 0;  ///< cells of the outline before and after dilation
+};
+
+/// The cells of an empty mask (a duplicate turn, or a turn a rectangle is never placed in).
+const std::shared_ptr<const RunCells>& no_cells() {
+  static const std::shared_ptr<const RunCells> none = std::make_shared<const RunCells>();
+  return none;
+}
+
+/// Outline of a chart in one quarter turn, dilated by the gutter.
+/// note: the cells are shared (the plans with and without block grid have the same cells, and
+/// the block-grid trial's plan is made while the other's width trials still search theirs:
+/// copying them cost 5-8% of the packer's CPU on the real tiles).
+struct RunMask {
+  int w = 0, h = 0;
+  std::shared_ptr<const RunCells> runs = no_cells();  ///< never null
+  bool duplicate = false;
+  int shape = -1;  ///< masks with the same cells share a shape id (RasterPage's resume rows)
   Grid grid;  ///< block grid of the padded box's position (an exact chart with block_grid; else off)
 };
 
@@ -252,11 +267,9 @@ RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s, const 
   if (q != 0 || !raw0) own = c.raster(q);
   const packing::Mask& raw = q != 0 || !raw0 ? own : *raw0;
   const packing::Mask m = packing::dilate(raw, s.gutter / 2, s.gutter - s.gutter / 2);
-  RunMask r;
+  RunCells r;
   r.outline_cells = std::count(raw.cells.begin(), raw.cells.end(), 1);
   r.cells = std::count(m.cells.begin(), m.cells.end(), 1);
-  r.w = m.width;
-  r.h = m.height;
   r.rows.resize(static_cast<size_t>(m.height));
   for (int y = 0; y < m.height; ++y)
     for (int x = 0; x < m.width;) {
@@ -310,7 +323,11 @@ RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s, const 
       break;
     }
   }
-  return r;
+  RunMask out;
+  out.w = m.width;
+  out.h = m.height;
+  out.runs = std::make_shared<const RunCells>(std::move(r));
+  return out;
 }
 
 /// A page's occupancy for the outline tail: per row, its free runs (sorted intervals), its longest
@@ -336,7 +353,7 @@ class RasterPage {
   }
   void fill_mask(const RunMask& m, int x, int y) {
     for (int r = 0; r < m.h; ++r)
-      for (const auto& [a, len] : m.rows[static_cast<size_t>(r)]) occupy(y + r, x + a, x + a + len);
+      for (const auto& [a, len] : m.runs->rows[static_cast<size_t>(r)]) occupy(y + r, x + a, x + a + len);
     used_ = std::max(used_, y + m.h);
   }
 
@@ -390,17 +407,18 @@ class RasterPage {
   /// fits, then the first that passes the longest-run filter (candidate_row); beyond height_ - m.h
   /// when m cannot fit the page.
   int start_row(const RunMask& m) {
-    if (m.w > width_ || m.wide_len == 0) return height_;
+    const RunCells& k = *m.runs;
+    if (m.w > width_ || k.wide_len == 0) return height_;
     int start = 0;
     if (m.shape >= 0) {
       if (resume_.size() <= static_cast<size_t>(m.shape)) resume_.resize(static_cast<size_t>(m.shape) + 1, 0);
       start = resume_[static_cast<size_t>(m.shape)];
     }
     // m fits at row y only if its core rectangle fits at row y + core_y.
-    if (m.core_w > 0) {
-      const int yc = lowest_rect(m.core_w, m.core_h, start + m.core_y, height_ - m.h + m.core_y);
+    if (k.core_w > 0) {
+      const int yc = lowest_rect(k.core_w, k.core_h, start + k.core_y, height_ - m.h + k.core_y);
       if (yc < 0) return std::max(start, height_ - m.h + 1);
-      start = yc - m.core_y;
+      start = yc - k.core_y;
     }
     return candidate_row(m, m.grid.up_y(start));
   }
@@ -409,10 +427,11 @@ class RasterPage {
   int candidate_row(const RunMask& m, int y) const {
     const int rows = static_cast<int>(free_.size());
     constexpr size_t kFilterRows = 4;  // the rest is left to leftmost_at
+    const std::vector<std::pair<int, int>>& longest = m.runs->longest;
     while (y + m.h <= height_) {
       int skip = -1;
-      for (size_t i = 0; i < std::min(kFilterRows, m.longest.size()); ++i) {
-        const auto& [r, k] = m.longest[i];
+      for (size_t i = 0; i < std::min(kFilterRows, longest.size()); ++i) {
+        const auto& [r, k] = longest[i];
         if (y + r >= rows) continue;
         if (maxrun_[static_cast<size_t>(y + r)] < k) {
           skip = next_row(y + r, k) - r;
@@ -510,14 +529,15 @@ class RasterPage {
       if (nx == 0) killer = y + r;
       return nx != 0;
     };
-    const int first = std::get<0>(m.checks.front());
+    const RunCells& k = *m.runs;
+    const int first = std::get<0>(k.checks.front());
     const int hint = killer - y >= 0 && killer - y < m.h && killer - y != first ? killer - y : -1;
-    if (!check(first, std::get<1>(m.checks.front()), std::get<2>(m.checks.front()))) return -1;
+    if (!check(first, std::get<1>(k.checks.front()), std::get<2>(k.checks.front()))) return -1;
     if (hint >= 0)
-      for (const auto& [a, len] : m.rows[static_cast<size_t>(hint)])
+      for (const auto& [a, len] : k.rows[static_cast<size_t>(hint)])
         if (!check(hint, a, len)) return -1;
-    for (size_t i = 1; i < m.checks.size(); ++i) {
-      const auto& [r, a, len] = m.checks[i];
+    for (size_t i = 1; i < k.checks.size(); ++i) {
+      const auto& [r, a, len] = k.checks[i];
       if (r != hint && !check(r, a, len)) return -1;
     }
     for (size_t i = 0; i < nx; ++i) {  // the leftmost offset on the block grid
@@ -625,18 +645,19 @@ class TetrisTrial {
     // Shortest run of any tail mask: the rasters keep only free runs at least this long.
     for (size_t n = tail; n < order.size() && drops.empty(); ++n)
       for (const RunMask& m : profiles[static_cast<size_t>(order[n])])
-        for (const auto& row : m.rows)
+        for (const auto& row : m.runs->rows)
           for (const auto& run : row) min_run_ = std::min(min_run_, run.second);
   }
 
   /// Places every chart (pages opened as needed); stops early, marked losing, when `bound` says the
   /// trial cannot win.
-  PackResult run(packing::TrialBound& bound, const StageContext& ctx) {
+  /// progress: the context to report progress to (the set's first trial only), or null.
+  PackResult run(packing::TrialBound& bound, const StageContext* progress) {
     bound.start();
     r_.placements.assign(in_.charts.size(), Placement{});
     for (size_t n = 0; n < order_.size(); ++n) {
-      if (bound.reports_progress() && (n & 1023) == 0)
-        ctx.step("packers.square_tetris", static_cast<double>(n) / static_cast<double>(order_.size()));
+      if (progress && bound.reports_progress() && (n & 1023) == 0)
+        progress->step("packers.square_tetris", static_cast<double>(n) / static_cast<double>(order_.size()));
       const PackChart& c = chart(n);
       packing::place_on_pages(pages_, [&] { return PageState(width_, s_.max_page_size); },
                               [&](size_t p) { return try_page(n, p, bound); }, "packers.square_tetris", c.id, width_);
@@ -788,11 +809,12 @@ class TetrisTrial {
 /// free position of the page (RasterPage), with `profiles` (outline run masks per turn) per chart id,
 /// or, when `drops` is not empty (a tail too large for that search), dropped on the horizon above
 /// the rectangles as packers.tetris drops charts, with `drops` (column profiles per turn) per chart id.
+/// progress: the context the set's first trial reports progress to, or null.
 PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, const std::vector<int>& order,
                               size_t tail, const std::vector<std::vector<RunMask>>& profiles,
                               const std::vector<std::vector<packing::Profile>>& drops, int width,
-                              packing::TrialBound& bound, const StageContext& ctx) {
-  return TetrisTrial(in, s, order, tail, profiles, drops, width).run(bound, ctx);
+                              packing::TrialBound& bound, const StageContext* progress) {
+  return TetrisTrial(in, s, order, tail, profiles, drops, width).run(bound, progress);
 }
 
 class SquareTetris : public Packer {
@@ -891,11 +913,12 @@ class SquareTetris : public Packer {
 
   /// Outline masks of chart c per quarter turn (empty for duplicate turns, and for turns 2 and 3 of
   /// a rectangle, which is placed in turns 0 and 1 only). from: when given, the chart's masks of
-  /// a plan made without block grid (moved from; the block grid changes no cell), else null.
+  /// a plan made without block grid (their cells are shared; the block grid changes no cell), else
+  /// null.
   /// note: the block-grid trial takes the first packing's masks instead of rasterising every
   /// chart again (rasterising was 39% of the 100k factory's packing profile).
   static std::vector<RunMask> chart_masks(const PackChart& c, bool rectangle, const CommonSettings& s,
-                                          std::vector<RunMask>* from) {
+                                          const std::vector<RunMask>* from) {
     std::vector<RunMask> out;
     packing::Mask raw0;
     std::vector<uint8_t> dups;  // per turn: same cells as an earlier turn
@@ -911,7 +934,7 @@ class SquareTetris : public Packer {
     for (size_t q = 0; q < dups.size(); ++q) {
       const bool dup = dups[q] && !gridded;
       if (dup || q >= turns) out.emplace_back();
-      else if (from && !dups[q]) out.push_back(std::move((*from)[q]));
+      else if (from && !dups[q]) out.push_back((*from)[q]);
       else out.push_back(make_run_mask(c, static_cast<int>(q), s, from ? nullptr : &raw0));
       out.back().duplicate = dup;
       out.back().grid = block_grid_of(c, static_cast<int>(q), s);
@@ -924,7 +947,7 @@ class SquareTetris : public Packer {
   /// on the horizon instead of placed by the bottom-left search; its rectangle-like charts are then
   /// moved to the front of the tail in `order`.
   PackPlan plan_packing(const PackInput& in, const CommonSettings& s, std::vector<int>& order, size_t tail,
-                        bool tail_skipped, PackPlan* reuse) const {
+                        bool tail_skipped, const PackPlan* reuse) const {
     const double rect_min_fill = options().get_double("rect_min_fill");
     PackPlan t;
     t.rects = tail;
@@ -971,18 +994,18 @@ class SquareTetris : public Packer {
     if (rects < order.size() && !tail_skipped)
       parallel_for(order.size(), [&](size_t n) {
         const size_t id = static_cast<size_t>(order[n]);
-        std::vector<RunMask>* from = reuse ? &reuse->profiles[id] : nullptr;
+        const std::vector<RunMask>* from = reuse ? &reuse->profiles[id] : nullptr;
         profiles[id] = chart_masks(in.charts[id], n < rects, s, from && !from->empty() ? from : nullptr);
       });
     // Shape ids and the tail's need, in order (labels only: the same whatever the thread count).
     std::map<std::vector<int>, int> shapes;  // tail masks' cells -> shape id
     for (size_t n = rects; n < order.size() && !tail_skipped; ++n)
       for (RunMask& m : profiles[static_cast<size_t>(order[n])]) {
-        if (&m == &profiles[static_cast<size_t>(order[n])][0]) need += static_cast<double>(m.cells);
+        if (&m == &profiles[static_cast<size_t>(order[n])][0]) need += static_cast<double>(m.runs->cells);
         if (m.duplicate) continue;
         // note: the block grid is part of the shape: the resume row holds for one grid only.
         std::vector<int> key{m.w, m.h, m.grid.g, m.grid.rx, m.grid.ry};
-        for (const auto& row : m.rows) {
+        for (const auto& row : m.runs->rows) {
           key.push_back(-1);
           for (const auto& [a, len] : row) { key.push_back(a); key.push_back(len); }
         }
@@ -1039,6 +1062,14 @@ class SquareTetris : public Packer {
     return out;
   }
 
+  /// Whether refine_widths may give widths (it gives none in the cases it names).
+  bool refines(const CommonSettings& s, size_t tail_charts, bool tail_skipped) const {
+    const long long steps = options().get_int("width_refine");
+    const long long max_charts = options().get_int("order_trials_max_charts");
+    return steps > 0 && !tail_skipped && tail_charts > 0 && !s.power_of_two && s.width_trials > 1 && max_charts > 0 &&
+           tail_charts <= static_cast<size_t>(max_charts);
+  }
+
   /// The widths of the refinement (option width_refine): 1 .. width_refine page_multiple steps
   /// narrower and wider than `best` (the best width of the trials), those not tried already
   /// (`tried`), within [min_page_width, max_page_size]; none without an outline tail (rectangles
@@ -1047,11 +1078,8 @@ class SquareTetris : public Packer {
   std::vector<int> refine_widths(const PackInput& in, const CommonSettings& s, const std::vector<int>& tried, int best,
                                  size_t tail_charts, bool tail_skipped) const {
     std::vector<int> out;
+    if (!refines(s, tail_charts, tail_skipped)) return out;
     const long long steps = options().get_int("width_refine");
-    const long long max_charts = options().get_int("order_trials_max_charts");
-    if (steps <= 0 || tail_skipped || tail_charts == 0 || s.power_of_two || s.width_trials <= 1 || max_charts <= 0 ||
-        tail_charts > static_cast<size_t>(max_charts))
-      return out;
     const int lo = packing::min_page_width(in, s);
     for (long long k = 1; k <= steps; ++k)
       for (const long long sign : {-1LL, 1LL}) {
@@ -1075,6 +1103,27 @@ class SquareTetris : public Packer {
     std::string order;
     long long outline = 0, padded = 0;  ///< outline cells before and after dilation (tail masks)
     PackPlan plan;  ///< the plan packed (its masks serve the block-grid trial; cleared after it)
+    std::vector<int> planned;  ///< the charts as planned: by area, rectangles first (tail_orders' base)
+    size_t tail = 0;           ///< rectangles at the front of the split into rectangles and tail
+  };
+
+  /// The block-grid trial (option block_grid): the first packing's charts with every exact chart on
+  /// its input page's block grid, packed in the first packing's tail order and page width, kept when
+  /// that needs fewer pages or at most block_grid_max_cost more page area. It is prepared before
+  /// the first packing's last width trials and packed beside them, on the thread the first one to
+  /// end leaves idle, for the leader of that moment (pack_widths' BesideJob); when the first
+  /// packing ends with another order or width, it is packed again after it (same result as always
+  /// packing it after the first packing).
+  struct GridTrial {
+    bool on = false;        ///< the option is on and page sides are whole blocks
+    CommonSettings g;       ///< the settings with block_grid set
+    double cost = 0;        ///< block_grid_max_cost
+    bool prepared = false;  ///< t holds the charts and plan (some chart is exact)
+    Packed t;               ///< the trial's charts and plan, then its packing
+    bool packed = false;    ///< t is packed for the first packing's result below
+    std::string order;      ///< that result's tail order, page width, pages and page area
+    int width = 0, pages = 0;
+    double area = 0;
   };
 
   /// Rectangles: charts whose padded box is at least tail_side^2 and whose outline fills at least
@@ -1103,81 +1152,178 @@ class SquareTetris : public Packer {
         order.begin());
   }
 
-  /// like: when given (a trial's packing against an earlier one), only like's tail order and page
-  /// width are packed, without refinement; otherwise every order and width. bar (> 0, with like):
-  /// the caller keeps the packing only as one page of at most bar texels^2, so it stops as soon as
-  /// it cannot be (its result is then marked losing, TrialBound::lose).
-  /// reuse: a plan without block grid whose masks this packing may take (moved from), or null.
-  Packed pack_all(StageContext& ctx, const CommonSettings& s, const Packed* like = nullptr, double bar = -1,
-                  PackPlan* reuse = nullptr) const {
+  /// Prepares a packing with settings s: charts, split into rectangles and tail, plan. reuse: the
+  /// plan of a packing without block grid whose split and masks this one takes (the block grid
+  /// changes no size or cell), or null.
+  Packed prepare_packing(const StageContext& ctx, const CommonSettings& s, const PackPlan* reuse) const {
     const std::string name = "packers.square_tetris";
     Packed out;
     out.in = packing::prepare_charts(ctx, s, name);
     const PackInput& in = out.in;
     packing::check_chart_sizes(in, s, name);
-    // note: another plan's split serves as it is (the block grid changes no size or cell; the big
-    // charts' rasters decide it: 78% of the 1M factory's faces).
+    // note: another plan's split serves as it is (the big charts' rasters decide it: 78% of the 1M
+    // factory's faces).
     const bool resplit = !reuse || reuse->split.empty();
     std::vector<int> order = resplit ? packing::order_by_area(in, s) : reuse->split;
     const size_t tail = resplit ? split_rectangles(in, s, order) : reuse->split_rects;
     const std::vector<int> split = order;
     const long long tail_max = options().get_int("tail_max_charts");
-    const size_t tail_charts = order.size() - tail;
-    const bool tail_skipped = tail_max > 0 && tail_charts > static_cast<size_t>(tail_max);
-    const PackPlan& plan = out.plan = plan_packing(in, s, order, tail, tail_skipped, reuse);
+    out.tail_charts = order.size() - tail;
+    out.tail_skipped = tail_max > 0 && out.tail_charts > static_cast<size_t>(tail_max);
+    out.plan = plan_packing(in, s, order, tail, out.tail_skipped, reuse);
     out.plan.split = split;
     out.plan.split_rects = tail;
-    // Each tail order is a full packing over every page width (pack_best_width); the fewest pages,
-    // then the least page area, then the earliest order wins (as page widths are chosen).
-    // note: once a width gives one page, later widths stop as soon as they cannot beat its area
-    // (same result as packing them fully; t016_L19: ~2x faster).
-    // note: page widths from the area the charts need as placed (padded boxes of the rectangles,
-    // dilated outlines of the tail) as well as from their boxes.
-    PackResult& r = out.r;
-    std::string best_order;
-    auto orders = tail_orders(in, s, order, tail, tail_skipped);
-    std::vector<int> widths = packing::trial_widths(in, s, plan.need);
-    if (like) {
-      const auto same = std::find_if(orders.begin(), orders.end(), [&](const auto& e) { return e.first == like->order; });
-      if (same != orders.end()) orders = {*same};
-      else orders.resize(1);
-      widths = {std::max(like->width, packing::min_page_width(in, s))};  // the grid's slack may need more
-    }
-    auto packer = [&](const std::vector<int>& o) {
-      return [&in, &s, &o, &plan, &ctx](int width, packing::TrialBound& bound) {
-        return pack_square_tetris(in, s, o, plan.rects, plan.profiles, plan.drops, width, bound, ctx);
-      };
+    out.planned = std::move(order);
+    out.tail = tail;
+    return out;
+  }
+
+  /// A width trial of p's plan in tail order o (pack_widths' pack_with_width); progress: as for
+  /// pack_square_tetris.
+  static std::function<PackResult(int, packing::TrialBound&)> trial(const Packed& p, const CommonSettings& s,
+                                                                    const std::vector<int>& o,
+                                                                    const StageContext* progress) {
+    return [&p, &s, &o, progress](int width, packing::TrialBound& bound) {
+      return pack_square_tetris(p.in, s, o, p.plan.rects, p.plan.profiles, p.plan.drops, width, bound, progress);
     };
+  }
+
+  /// p's outline cells before and after dilation (turn 0 of every chart's masks).
+  static void count_outlines(Packed& p) {
+    p.outline = p.padded = 0;
+    for (const auto& m : p.plan.profiles)
+      if (!m.empty()) {
+        p.outline += m[0].runs->outline_cells;
+        p.padded += m[0].runs->cells;
+      }
+  }
+
+  /// Packs p (prepared) with every tail order and page width, then the refined widths: the fewest
+  /// pages, then the least page area, then the earliest order and width win. Each tail order is a
+  /// full packing over every page width (pack_widths). grid: a prepared block-grid trial, packed
+  /// beside the last width trials (those of the refinement, or of the last order without one), or
+  /// null.
+  /// note: once a width gives one page, later widths stop as soon as they cannot beat its area
+  /// (same result as packing them fully; t016_L19: ~2x faster); later orders stop a width as soon
+  /// as it cannot beat the best so far. Page widths come from the area the charts need as placed
+  /// (padded boxes of the rectangles, dilated outlines of the tail) as well as from their boxes.
+  void pack_orders(const StageContext& ctx, Packed& p, const CommonSettings& s, GridTrial* grid) const {
+    const PackInput& in = p.in;
+    PackResult& r = p.r;
+    const auto orders = tail_orders(in, s, p.planned, p.tail, p.tail_skipped);
+    const std::vector<int> widths = packing::trial_widths(in, s, p.plan.need);
+    const bool refining = refines(s, p.tail_charts, p.tail_skipped);
     int best_width = 0;
     const std::vector<int>* best_o = nullptr;
-    for (const auto& entry : orders) {
+    // the grid trial for the leader of a set of widths `ws` of tail order `phase` (BesideJob)
+    auto beside = [&](const std::string& phase, const std::vector<int>& ws) -> packing::BesideJob {
+      if (!grid) return {};
+      return [this, grid, &phase, &ws, &p, &best_width](int leader, const PackResult& first) {
+        const bool incumbent = leader < 0;
+        pack_grid_beside(*grid, incumbent ? p.order : phase, incumbent ? best_width : ws[static_cast<size_t>(leader)], first);
+      };
+    };
+    for (size_t k = 0; k < orders.size(); ++k) {
+      const auto& [name, o] = orders[k];
+      const bool last = !refining && k + 1 == orders.size();
       int w = 0;
-      // note: later orders stop a width as soon as it cannot beat the best so far (same result).
-      PackResult t = packing::pack_widths(in, s, widths, packer(entry.second), &w, best_order.empty() ? nullptr : &r,
-                                          like ? bar : -1);
-      if (best_order.empty() || packing::better_result(t, r))
-        r = std::move(t), best_order = entry.first, best_width = w, best_o = &entry.second;
+      PackResult t = packing::pack_widths(in, s, widths, trial(p, s, o, &ctx), &w, best_o ? &r : nullptr, -1,
+                                          last ? beside(name, widths) : packing::BesideJob{});
+      if (!best_o || packing::better_result(t, r)) r = std::move(t), p.order = name, best_width = w, best_o = &o;
     }
-    const std::vector<int> extra =
-        like ? std::vector<int>{} : refine_widths(in, s, widths, best_width, tail_charts, tail_skipped);
+    const std::vector<int> extra = refine_widths(in, s, widths, best_width, p.tail_charts, p.tail_skipped);
     if (!extra.empty()) {
       int w = 0;
-      PackResult t = packing::pack_widths(in, s, extra, packer(*best_o), &w, &r);
-      if (packing::better_result(t, r)) r = std::move(t), best_width = w, out.refined = true;
+      PackResult t = packing::pack_widths(in, s, extra, trial(p, s, *best_o, &ctx), &w, &r, -1, beside(p.order, extra));
+      if (packing::better_result(t, r)) r = std::move(t), best_width = w, p.refined = true;
     }
-    out.width = best_width;
-    out.tail_charts = tail_charts;
-    out.tail_skipped = tail_skipped;
-    out.orders = orders.size();
-    out.order = best_order;
-    out.width_trials = widths.size() * orders.size() + extra.size();
-    // where the page area goes: UV area / rasterised outlines / outlines dilated by the gutter
-    for (const auto& p : plan.profiles)
-      if (!p.empty()) {
-        out.outline += p[0].outline_cells;
-        out.padded += p[0].cells;
-      }
+    p.width = best_width;
+    p.orders = orders.size();
+    p.width_trials = widths.size() * orders.size() + extra.size();
+    count_outlines(p);
+  }
+
+  /// One complete packing of ctx.atlas with settings s. grid: the block-grid trial (on), prepared
+  /// here when some chart is exact and packed beside the last width trials, or null.
+  Packed pack_all(const StageContext& ctx, const CommonSettings& s, GridTrial* grid = nullptr) const {
+    Packed out = prepare_packing(ctx, s, nullptr);
+    if (grid && std::any_of(out.in.charts.begin(), out.in.charts.end(),
+                            [](const PackChart& c) { return c.exact && !c.faces.empty(); })) {
+      grid->t = prepare_packing(ctx, grid->g, &out.plan);
+      grid->prepared = true;
+    }
+    pack_orders(ctx, out, s, grid && grid->prepared ? grid : nullptr);
     return out;
+  }
+
+  /// Packs the prepared grid trial in tail order `order` (its first order when it has no such
+  /// order) at page width `width` (or the narrowest the block grid's slack allows), against the
+  /// first packing's result `first`: with one page, it stops once it needs a second page or more
+  /// than block_grid_max_cost more area (it could not be kept; t016_L19: it placed all 757 charts,
+  /// 0.48 s of one thread, never kept). progress: as for pack_square_tetris.
+  void pack_grid(GridTrial& grid, const std::string& order, int width, const PackResult& first,
+                 const StageContext* progress) const {
+    grid.packed = false;
+    Packed& p = grid.t;
+    const auto orders = tail_orders(p.in, grid.g, p.planned, p.tail, p.tail_skipped);
+    auto same = std::find_if(orders.begin(), orders.end(), [&](const auto& e) { return e.first == order; });
+    if (same == orders.end()) same = orders.begin();
+    const std::vector<int> widths{std::max(width, packing::min_page_width(p.in, grid.g))};
+    const double bar = first.pages == 1 ? (1 + grid.cost) * first.total_area() : -1;
+    int w = 0;
+    p.r = packing::pack_widths(p.in, grid.g, widths, trial(p, grid.g, same->second, progress), &w, nullptr, bar);
+    p.order = same->first;
+    p.width = w;
+    p.orders = 1;
+    p.width_trials = 1;
+    p.refined = false;
+    count_outlines(p);
+    grid.order = order;
+    grid.width = width;
+    grid.pages = first.pages;
+    grid.area = first.total_area();
+    grid.packed = true;
+  }
+
+  /// pack_grid beside the first packing's width trials (a BesideJob: any thread, no progress
+  /// reports, no exception: a failure leaves the trial to be packed again after).
+  void pack_grid_beside(GridTrial& grid, const std::string& order, int width, const PackResult& first) const noexcept {
+    try {
+      pack_grid(grid, order, width, first, nullptr);
+    } catch (...) {
+      grid.packed = false;
+    }
+  }
+
+  /// The block-grid trial for `best` (the first packing): packed again unless it was packed
+  /// beside for this very result, and kept (best = the trial, s = its settings) when it needs
+  /// fewer pages or at most block_grid_max_cost more page area. trials: the page widths it packed
+  /// (0 without a trial). Returns whether it was kept.
+  bool keep_grid_trial(const StageContext& ctx, GridTrial& grid, Packed& best, CommonSettings& s, size_t& trials) const {
+    trials = 0;
+    if (!grid.prepared) return false;
+    if (!grid.packed || grid.order != best.order || grid.width != best.width || grid.pages != best.r.pages ||
+        grid.area != best.r.total_area())
+      pack_grid(grid, best.order, best.width, best.r, &ctx);
+    trials = grid.t.width_trials;
+    const double bar = (1 + grid.cost) * best.r.total_area();
+    const PackResult& t = grid.t.r;
+    if (!(t.pages < best.r.pages || (t.pages == best.r.pages && t.total_area() <= bar))) return false;
+    best = std::move(grid.t);
+    s = grid.g;
+    return true;
+  }
+
+  /// The block-grid trial's settings: on when block_grid > 1 and page sides are whole blocks
+  /// (block_grid dividing page_multiple, or power-of-two pages, and max_page_size).
+  GridTrial grid_trial(const CommonSettings& s) const {
+    GridTrial t;
+    const int grid = static_cast<int>(options().get_int("block_grid"));
+    t.on = grid > 1 && (s.power_of_two || s.page_multiple % std::max(grid, 1) == 0) && s.max_page_size % std::max(grid, 1) == 0;
+    t.g = s;
+    t.g.block_grid = grid;
+    t.cost = options().get_double("block_grid_max_cost");
+    return t;
   }
 
   /// Whether a packing with every partly exact chart freed (exact_fraction 1) may differ: some
@@ -1199,32 +1345,12 @@ class SquareTetris : public Packer {
   void pack(StageContext& ctx) override {
     const std::string name = "packers.square_tetris";
     CommonSettings s = packing::read_common(options());
-    Packed best = pack_all(ctx, s);
-    // Block grid trial: the same charts with the exact ones on the input's block grid, kept when
-    // that needs fewer pages or at most block_grid_max_cost more page area. Page sides must be
-    // whole blocks (block_grid dividing page_multiple, or power-of-two pages at least that large,
-    // and max_page_size); otherwise there is no trial.
-    bool grid_kept = false;
-    size_t grid_trials = 0;  // page widths the block-grid trial packed (over its tail orders)
-    const int grid = static_cast<int>(options().get_int("block_grid"));
-    const bool whole_blocks = (s.power_of_two || s.page_multiple % std::max(grid, 1) == 0) &&
-                              s.max_page_size % std::max(grid, 1) == 0;
-    if (grid > 1 && whole_blocks &&
-        std::any_of(best.in.charts.begin(), best.in.charts.end(), [](const PackChart& c) { return c.exact && !c.faces.empty(); })) {
-      CommonSettings g = s;
-      g.block_grid = grid;
-      const double cost = options().get_double("block_grid_max_cost");
-      const double bar = (1 + cost) * best.r.total_area();
-      // note: with one page, the trial stops once it needs a second page or more than bar: it
-      // could not be kept (t016_L19: it placed all 757 charts, 0.48 s of one thread, never kept).
-      Packed t = pack_all(ctx, g, &best, best.r.pages == 1 ? bar : -1, &best.plan);
-      grid_trials = t.width_trials;
-      if (t.r.pages < best.r.pages || (t.r.pages == best.r.pages && t.r.total_area() <= bar)) {
-        best = std::move(t);
-        s = g;
-        grid_kept = true;
-      }
-    }
+    // Block grid trial (GridTrial): prepared and packed beside the first packing when it applies.
+    GridTrial grid = grid_trial(s);
+    Packed best = pack_all(ctx, s, grid.on ? &grid : nullptr);
+    size_t grid_trials = 0;  // page widths the block-grid trial packed
+    const bool grid_kept = keep_grid_trial(ctx, grid, best, s, grid_trials);
+    grid = GridTrial{};
     best.plan = PackPlan{};  // the masks are not needed any more (memory: 1M faces)
     // Free trial: the same charts with every partly exact chart free to rotate (resampled), kept
     // only when it saves at least free_trial_gain of the page area (or a page).
@@ -1244,25 +1370,29 @@ class SquareTetris : public Packer {
     const PackResult& r = best.r;
     ctx.step(name, 1.0);
     packing::write_layout(ctx, best.in, r);
-    if (ctx.report) {
-      (*ctx.report)["hole_fills"] = r.hole_fills;
-      (*ctx.report)["outline_drops"] = r.outline_drops;
-      (*ctx.report)["tail_charts"] = best.tail_charts;
-      (*ctx.report)["outline_tail_skipped"] = best.tail_skipped;
-      (*ctx.report)["tail_orders_tried"] = best.orders;
-      (*ctx.report)["tail_order"] = best.order;
-      (*ctx.report)["page_width_trials"] = best.width_trials;
-      (*ctx.report)["page_width_refined"] = best.refined;
-      (*ctx.report)["free_trial_kept"] = freed;
-      (*ctx.report)["block_grid_kept"] = grid_kept;
-      (*ctx.report)["block_grid_width_trials"] = grid_trials;
-      size_t aligned = 0;
-      for (const PackChart& c : best.in.charts) aligned += c.block_aligned && !c.faces.empty() ? 1 : 0;
-      (*ctx.report)["charts_block_aligned"] = aligned;
-      if (best.outline > 0) {
-        (*ctx.report)["outline_texels"] = best.outline;
-        (*ctx.report)["padded_outline_texels"] = best.padded;
-      }
+    if (ctx.report) write_report(*ctx.report, best, freed, grid_kept, grid_trials);
+  }
+
+  /// The stage's own report fields (write_layout writes the common ones).
+  static void write_report(json& rep, const Packed& best, bool freed, bool grid_kept, size_t grid_trials) {
+    const PackResult& r = best.r;
+    rep["hole_fills"] = r.hole_fills;
+    rep["outline_drops"] = r.outline_drops;
+    rep["tail_charts"] = best.tail_charts;
+    rep["outline_tail_skipped"] = best.tail_skipped;
+    rep["tail_orders_tried"] = best.orders;
+    rep["tail_order"] = best.order;
+    rep["page_width_trials"] = best.width_trials;
+    rep["page_width_refined"] = best.refined;
+    rep["free_trial_kept"] = freed;
+    rep["block_grid_kept"] = grid_kept;
+    rep["block_grid_width_trials"] = grid_trials;
+    size_t aligned = 0;
+    for (const PackChart& c : best.in.charts) aligned += c.block_aligned && !c.faces.empty() ? 1 : 0;
+    rep["charts_block_aligned"] = aligned;
+    if (best.outline > 0) {
+      rep["outline_texels"] = best.outline;
+      rep["padded_outline_texels"] = best.padded;
     }
   }
 };

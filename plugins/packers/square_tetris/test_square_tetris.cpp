@@ -7,8 +7,11 @@
 #include "texdefrag/util/parallel.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
+#include <memory>
 #include <random>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -467,6 +470,43 @@ TEST(PackersSquareTetris, BlockGridTrialKeepsTheSmallerPackingAndNeedsWholeBlock
   auto odd = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 12}, {"block_grid_max_cost", 1.0}});
   expect_valid_layout(*odd, 4);
   EXPECT_FALSE(odd->report.at("block_grid_kept").get<bool>());
+}
+
+TEST(PackersSquareTetris, BlockGridTrialPackedBesideForAnotherWidthIsPackedAgain) {
+  // 64 squares of 30 x 30 texels (gutter 4, padded 34): of the page widths tried (288, 320, 352),
+  // 288 packs them 8 x 8 on the smallest page, so the first width trial wins. That trial runs on
+  // the calling thread, the only one reporting progress; a pause in its first report (not a
+  // measured time: it only lets the other threads go first) makes the other widths finish first,
+  // so the block-grid trial packed beside them is packed for one of those. Kept whatever its area
+  // (block_grid_max_cost 1), it must be packed again for width 288: every placement must be that
+  // of one thread (where it runs after every width trial).
+  std::vector<std::vector<Vec2>> squares;
+  for (int i = 0; i < 64; ++i) {
+    const Vec2 o(40.0 * (i % 16), 40.0 * (i / 16));
+    squares.push_back({o, o + Vec2(30, 0), o + Vec2(30, 30), o + Vec2(0, 30)});
+  }
+  auto pause_first_report = [] {
+    auto first = std::make_shared<bool>(true);
+    return ProgressFn([first](const std::string&, double) {
+      if (*first) std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      *first = false;
+      return true;
+    });
+  };
+  const json opts = {{"block_grid_max_cost", 1.0}, {"order_trials_max_charts", 0}};
+  std::vector<std::unique_ptr<PackRun>> runs;
+  for (int threads : {1, 2, 4}) {
+    set_thread_count(threads);
+    runs.push_back(run_packer(kName, polygon_mesh(squares, 1024), opts, nullptr, pause_first_report()));
+  }
+  set_thread_count(0);
+  expect_valid_layout(*runs[0], 4);
+  EXPECT_TRUE(runs[0]->report.at("block_grid_kept").get<bool>());
+  EXPECT_EQ(runs[0]->ctx.layout.pages[0].width, 288);
+  for (size_t k = 1; k < runs.size(); ++k) {
+    EXPECT_EQ(runs[k]->report.at("page_sizes"), runs[0]->report.at("page_sizes"));
+    EXPECT_EQ(runs[k]->ctx.layout.wedge_uv, runs[0]->ctx.layout.wedge_uv);
+  }
 }
 
 TEST(PackersSquareTetris, FreeTrialFreesAPartlyExactChartWhenThatSavesPageArea) {

@@ -358,19 +358,51 @@ bool better_result(const PackResult& a, const PackResult& b) {
   return a.pages < b.pages || (a.pages == b.pages && a.total_area() < b.total_area());
 }
 
+namespace {
+
+/// The leader among the finished trials (done) and the incumbent, as pack_widths and its caller
+/// would choose if no other trial finished: the best finished trial (ties: the lower index)
+/// unless the incumbent is at least as good. Returns its index, -1 for the incumbent, or -2 when
+/// there is neither.
+int leader_of(const std::vector<PackResult>& results, const std::vector<uint8_t>& done, const PackResult* incumbent) {
+  int best = -2;
+  for (size_t i = 0; i < results.size(); ++i)
+    if (done[i] && (best < 0 || better_result(results[i], results[static_cast<size_t>(best)]))) best = static_cast<int>(i);
+  if (incumbent && (best < 0 || !better_result(results[static_cast<size_t>(best)], *incumbent))) return -1;
+  return best;
+}
+
+}  // namespace
+
 PackResult pack_widths(const PackInput& in, const CommonSettings& s, const std::vector<int>& widths,
                        const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width, int* chosen,
-                       const PackResult* incumbent, double bar) {
+                       const PackResult* incumbent, double bar, const BesideJob& beside) {
   TrialBoard board(widths.size());
   if (incumbent && incumbent->pages == 1) board.seed(incumbent->total_area());
   else if (!incumbent && bar > 0) board.seed(bar, false);
   std::vector<PackResult> results(widths.size());
-  parallel_for(widths.size(), [&](size_t i) {
+  std::vector<uint8_t> done(widths.size(), 0);  // guarded by `mutex` (read by the beside job)
+  std::mutex mutex;
+  // note: the beside job is one more item after the trials, so it starts once every trial has
+  // started, on the first thread left without one; a finished result is never written again, so
+  // the leader's result may be read outside the lock.
+  parallel_for(widths.size() + (beside ? 1 : 0), [&](size_t i) {
+    if (i == widths.size()) {
+      int leader = 0;
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        leader = leader_of(results, done, incumbent);
+      }
+      if (leader >= -1) beside(leader, leader < 0 ? *incumbent : results[static_cast<size_t>(leader)]);
+      return;
+    }
     TrialBound bound(board, i);
     PackResult r = pack_with_width(widths[i], bound);
     size_pages(in, s, r);
     board.record(i, r);
+    std::lock_guard<std::mutex> lock(mutex);
     results[i] = std::move(r);
+    done[i] = 1;
   });
   size_t best = 0;
   for (size_t i = 1; i < results.size(); ++i)

@@ -1,9 +1,12 @@
 // Chart preparation, exactness anchoring and page sizing of the shared packer library.
 #include "texdefrag/packers/packing.h"
+#include "texdefrag/util/parallel.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <condition_variable>
+#include <mutex>
 
 using namespace texdefrag;
 using namespace texdefrag::packing;
@@ -274,4 +277,99 @@ TEST(PackersCommon, TrialBoardWithABarStopsOnlyTrialsOverIt) {
   board.record(0, one_page);  // the trials still bound each other
   EXPECT_TRUE(board.beaten(1, 1, 81.0));
   EXPECT_FALSE(board.beaten(1, 1, 80.0));
+}
+
+namespace {
+
+/// A fake width trial for pack_widths: one chart of 1 x 1 texels placed so that page 0 is
+/// width x height texels (page_multiple 1, gutter 0), on `pages` pages.
+PackResult fake_trial(int width, int height, int pages = 1) {
+  PackResult r;
+  r.placements = {Placement{0, width - 1, height - 1, 0}};
+  r.pages = pages;
+  return r;
+}
+
+struct FakeInput {
+  PackInput in;
+  CommonSettings s;
+  FakeInput() {
+    in.charts.resize(1);
+    s.gutter = 0;
+    s.page_multiple = 1;
+  }
+};
+
+}  // namespace
+
+TEST(PackersCommon, PackWidthsRunsTheBesideJobWithTheLeaderOfTheFinishedTrials) {
+  // Page heights per width: 40 -> 40 x 40, 30 -> two pages, 20 -> 20 x 100, 50 -> 50 x 20 (the
+  // best: 1000 texels^2). With one thread the beside job runs once, after every trial, with the
+  // chosen width's result, or with the incumbent (-1) when no trial beats it (ties keep it).
+  FakeInput f;
+  const std::vector<int> widths{40, 30, 20, 50};
+  auto trial = [](int w, TrialBound&) {
+    return w == 30 ? fake_trial(30, 30, 2) : fake_trial(w, w == 40 ? 40 : w == 20 ? 100 : 20);
+  };
+  set_thread_count(1);
+  struct Call {
+    int leader;
+    double area;
+    const PackResult* result;
+  };
+  std::vector<Call> calls;
+  const BesideJob job = [&](int leader, const PackResult& r) { calls.push_back({leader, r.total_area(), &r}); };
+  int chosen = 0;
+  const PackResult best = pack_widths(f.in, f.s, widths, trial, &chosen, nullptr, -1, job);
+  EXPECT_EQ(chosen, 50);
+  EXPECT_EQ(best.total_area(), 1000.0);
+  ASSERT_EQ(calls.size(), 1u);
+  EXPECT_EQ(calls[0].leader, 3);
+  EXPECT_EQ(calls[0].area, 1000.0);
+  for (const auto& [area, leader] : std::vector<std::pair<int, int>>{{900, -1}, {1000, -1}, {1001, 3}}) {
+    SCOPED_TRACE("incumbent " + std::to_string(area));
+    PackResult incumbent;
+    incumbent.pages = 1;
+    incumbent.sizes = {{area, 1}};
+    calls.clear();
+    pack_widths(f.in, f.s, widths, trial, &chosen, &incumbent, -1, job);
+    ASSERT_EQ(calls.size(), 1u);
+    EXPECT_EQ(calls[0].leader, leader);
+    if (leader < 0) {
+      EXPECT_EQ(calls[0].result, &incumbent);
+    }
+  }
+  set_thread_count(0);
+}
+
+TEST(PackersCommon, PackWidthsBesideJobMayRunBeforeABetterTrialEnds) {
+  // Two threads, widths 10 (one page of 100 texels^2, at once) and 20 (one page of 25, ending
+  // only after the beside job ran): the job starts once both trials started, and sees only the
+  // first as finished, so its leader (0) is not the chosen width (20). The caller must check the
+  // leader against the final result (square_tetris's block-grid trial does).
+  FakeInput f;
+  std::mutex m;
+  std::condition_variable cv;
+  bool job_ran = false;
+  auto trial = [&](int w, TrialBound&) {
+    if (w == 20) {
+      std::unique_lock<std::mutex> lock(m);
+      cv.wait(lock, [&] { return job_ran; });
+      return fake_trial(5, 5);
+    }
+    return fake_trial(10, 10);
+  };
+  int leader = -2;
+  const BesideJob job = [&](int l, const PackResult&) {
+    std::lock_guard<std::mutex> lock(m);
+    leader = l;
+    job_ran = true;
+    cv.notify_all();
+  };
+  set_thread_count(2);
+  int chosen = 0;
+  pack_widths(f.in, f.s, {10, 20}, trial, &chosen, nullptr, -1, job);
+  set_thread_count(0);
+  EXPECT_EQ(leader, 0);
+  EXPECT_EQ(chosen, 20);
 }

@@ -106,7 +106,7 @@ std::vector<std::vector<Vec2>> building_polygons(std::mt19937& rng, int count, i
 }
 
 std::unique_ptr<PackRun> run_packer(const std::string& name, TexturedMesh mesh, const json& options,
-                                    const std::function<void(Atlas&)>& edit) {
+                                    const std::function<void(Atlas&)>& edit, const ProgressFn& progress) {
   Registry& reg = Registry::instance();
   reg.load_plugins();
   auto run = std::make_unique<PackRun>();
@@ -119,7 +119,7 @@ std::unique_ptr<PackRun> run_packer(const std::string& name, TexturedMesh mesh, 
   run->ctx.atlas = run->charts.atlas;
   if (edit) edit(run->ctx.atlas);
   run->ctx.report = &run->report;
-  run->ctx.progress = [](const std::string&, double) { return true; };
+  run->ctx.progress = progress ? progress : [](const std::string&, double) { return true; };
   std::unique_ptr<Stage> st = reg.create(name);
   const StageInfo* info = reg.find(name);
   st->set_options(default_options(*info, options));

@@ -41,10 +41,12 @@ struct PackRun {
 
 /// Builds topology and charts of `mesh` and runs packer `name` with `options` (defaults filled in).
 /// `edit`, when set, changes the working atlas before packing (to simulate a merger's output).
+/// `progress`, when set, is the stage's progress callback (else a no-op that never cancels).
 /// Loads the plugins on first use. Exceptions of the packer propagate.
 std::unique_ptr<PackRun> run_packer(const std::string& name, TexturedMesh mesh,
                                     const json& options = json::object(),
-                                    const std::function<void(Atlas&)>& edit = nullptr);
+                                    const std::function<void(Atlas&)>& edit = nullptr,
+                                    const ProgressFn& progress = nullptr);
 
 /// The invariant suite every packer must pass, run by each packer's test executable:
 /// random charts (valid layout, exact whole-texel placement), several gutters, multiple pages

@@ -208,6 +208,16 @@ std::vector<int> trial_widths(const PackInput& in, const CommonSettings& s, doub
 /// The narrowest page width every chart fits in with its gutter (some allowed turn), texels.
 int min_page_width(const PackInput& in, const CommonSettings& s);
 
+/// A job pack_widths runs beside its width trials, on a thread that would otherwise wait: once
+/// every trial has started, the first thread left without one calls it with the leader at that
+/// moment, i.e. what pack_widths and its caller would keep if no running trial finished better
+/// (the best finished trial, or the incumbent when none beats it): `leader` is its index in
+/// `widths`, or -1 for the incumbent, and `result` its sized result. Not called when no trial has
+/// finished and there is no incumbent. With one thread it runs after every trial (the leader is
+/// then the result). It must not throw, and must not call what must stay on the calling thread
+/// (progress callbacks): it may run on any thread of the loop.
+using BesideJob = std::function<void(int leader, const PackResult& result)>;
+
 /// Packs each of `widths` (side by side, a TrialBoard stopping hopeless trials) and returns the
 /// best: the fewest pages, then the least page area, then the earliest width; its width goes to
 /// *chosen when given. The result does not depend on the thread count. widths: not empty, each at
@@ -216,9 +226,11 @@ int min_page_width(const PackInput& in, const CommonSettings& s);
 /// as soon as they cannot beat it (a stopped trial's result is marked losing, TrialBound::lose).
 /// bar (> 0, without incumbent): the caller keeps the result only when it is one page of at most
 /// bar texels^2, so trials stop as soon as they open a second page or need more than that.
+/// beside: when not empty, run beside the last trials (BesideJob).
 PackResult pack_widths(const PackInput& in, const CommonSettings& s, const std::vector<int>& widths,
                        const std::function<PackResult(int width, TrialBound& bound)>& pack_with_width,
-                       int* chosen = nullptr, const PackResult* incumbent = nullptr, double bar = -1);
+                       int* chosen = nullptr, const PackResult* incumbent = nullptr, double bar = -1,
+                       const BesideJob& beside = {});
 
 /// Whether a beats b: fewer pages, or as many and less page area (sized results).
 bool better_result(const PackResult& a, const PackResult& b);
