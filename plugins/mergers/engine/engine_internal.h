@@ -25,6 +25,7 @@
 #include <queue>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -214,6 +215,8 @@ struct Move {
   int fan_wedge = -1;                      ///< check_fans: the wedge whose fan was refused (-1: none)
   size_t open_ends = 0;                    ///< partial weld: seam vertices left unwelded (leave_open)
   bool repaired_earlier = false;           ///< partial weld: an earlier try of the move needed the repair
+  bool fill_holes = false;                 ///< hole filling: solve with triangles across the merged chart's holes
+  bool holes_refused = false;              ///< hole filling: refused for its shape with a hole in the problem
 };
 
 class Engine {
@@ -274,7 +277,8 @@ class Engine {
   /// rollback(L)), or false with `reason` set and the atlas restored.
   bool evaluate_merge(int a, int b, std::string& reason, Lane& L, Move& mv);
   /// One try of evaluate_merge with the seam vertices in `open` left unwelded (partial_weld_tries).
-  bool attempt_merge(int a, int b, const std::vector<int>& open, std::string& reason, Lane& L, Move& mv);
+  /// With `fill`, the solve gets triangles across the merged chart's holes (fill_holes).
+  bool attempt_merge(int a, int b, const std::vector<int>& open, bool fill, std::string& reason, Lane& L, Move& mv);
   /// Drops the seam edges touching a vertex of `open` from the move and pairs only the others' wedges.
   void leave_open(Move& mv, const std::vector<int>& open);
   /// After a fan_overlap refusal: the vertex of the refused fan when it is a welded end of the seam
@@ -309,6 +313,18 @@ class Engine {
   /// Step 4: solves the local problem on the free wedges and writes the result into the atlas;
   /// fills mv.prob_faces, mv.solved and mv.changed.
   void solve(Move& mv);
+  /// fill_holes, inside solve (engine_holes.cpp): the boundary loop of chart c through the boundary
+  /// edge (f, k), wedges in face order; false when it pinches, repeats a wedge, runs longer than the
+  /// engine's bound or meets an edge already in `seen` (every edge it walks is added there).
+  bool trace_boundary_loop(int f, int k, int c, std::vector<int>& loop, std::unordered_set<long long>& seen) const;
+  /// fill_holes: the merged chart's hole loops through mv.prob_faces that hold a free wedge (boundary
+  /// loops running against the chart's faces, i.e. every loop but the outer one).
+  std::vector<std::vector<int>> hole_loops(const Move& mv) const;
+  /// fill_holes: ear-clips each hole loop at the current positions and adds its triangles with a free
+  /// corner to lp (rest shape: the triangle as it is, weight: its area; local_of gives a wedge's
+  /// index in lp.x, adding it pinned when new). The triangles only steer the solve. Returns the
+  /// number of holes that got a triangle.
+  size_t add_hole_faces(const Move& mv, LocalProblem& lp, const std::function<int(int)>& local_of) const;
   /// With fan_targets, after free_region: frees the wedges around each free boundary wedge whose
   /// merged fan's input angles add up to more than a turn (up to max_free_vertices).
   void free_fan_rings(Move& mv);

@@ -27,12 +27,23 @@ bool Engine::evaluate_merge(int a, int b, std::string& reason, Lane& L, Move& mv
   // Partial welds (docs/mergers.md step 7): a seam end whose welded fan would wrap past a turn is
   // left unwelded and the move tried again; its seam edge stays cut, a slit the fan can open into.
   std::vector<int> open;
-  bool repaired = false;
+  bool repaired = false, fill = false;
   for (int tries = 0;; ++tries) {
-    const bool ok = attempt_merge(a, b, open, reason, L, mv);
+    const bool ok = attempt_merge(a, b, open, fill, reason, L, mv);
     mv.repaired_earlier = repaired;
-    if (ok) return true;
+    if (ok) {
+      if (fill) ++L.rep.hole_fills_accepted;
+      return true;
+    }
     repaired = repaired || mv.repaired;
+    if (mv.holes_refused && !fill) {
+      // Hole filling (docs/mergers.md, "Hole filling"): the same move once more, its solve steered by
+      // triangles across the merged chart's holes.
+      fill = true;
+      --L.rep.attempted;  // note: the same move again; begin_move counts it once more
+      ++L.rep.hole_fill_retries;
+      continue;
+    }
     const int v = tries < opt_.partial_weld_tries && reason == "fan_overlap" ? open_seam_end(mv) : -1;
     if (v < 0) return false;
     open.push_back(v);
@@ -41,8 +52,10 @@ bool Engine::evaluate_merge(int a, int b, std::string& reason, Lane& L, Move& mv
   }
 }
 
-bool Engine::attempt_merge(int a, int b, const std::vector<int>& open, std::string& reason, Lane& L, Move& mv) {
+bool Engine::attempt_merge(int a, int b, const std::vector<int>& open, bool fill, std::string& reason, Lane& L,
+                           Move& mv) {
   mv = begin_move(a, b, L);
+  mv.fill_holes = fill;
   if (!open.empty()) leave_open(mv, open);
   align(mv);
   if (const char* why = check_orientation(mv)) {
@@ -100,6 +113,10 @@ bool Engine::evaluate_welded(Move& mv, std::string& reason, Lane& L) {
   L.rep.check_seconds += seconds_since(t0);
   if (why) {
     reason = why;
+    // note: only refusals decided before the budget test (check()): whether a move is tried again
+    // must not depend on the budget, which a second-pass speculation's lane does not know.
+    const bool shape = reason == "flip" || reason == "collapse" || reason == "fold" || reason == "fan_overlap";
+    mv.holes_refused = opt_.fill_holes && !mv.fill_holes && !mv.self && shape && !hole_loops(mv).empty();
     rollback(L);
     return false;
   }
@@ -407,6 +424,13 @@ void Engine::solve(Move& mv) {
                                                            : rest_inv_[static_cast<size_t>(f)]);
     lp.weight.push_back(rest_w_[static_cast<size_t>(f)]);
   }
+  if (mv.fill_holes) {
+    const auto local_of = [&](int w) {
+      if (wlocal_stamp_[static_cast<size_t>(w)] != L.epoch) add_local(w);
+      return local(w);
+    };
+    L.rep.holes_filled += add_hole_faces(mv, lp, local_of);
+  }
   lp.repair_usable = !repair_spent(L);
   L.free_total += lp.num_free;
   ++L.free_count;
@@ -514,10 +538,11 @@ const char* Engine::check(Move& mv) {
   if (!mv.solved) return "flip";
   if (const char* why = check_shapes(mv)) return why;
   if (const char* why = check_folds(mv)) return why;
-  // note: with partial welds the fans come before the distortion, so that whether a move is tried
-  // again never depends on the budget, which a second-pass speculation's lane does not know
-  // (engine_speculate.cpp): the same tries on every thread count.
-  const bool fans_first = opt_.partial_weld_tries > 0;
+  // note: with partial welds or hole filling the fans come before the distortion, so that whether a
+  // move is tried again never depends on the budget, which a second-pass speculation's lane does not
+  // know (engine_speculate.cpp): the same tries on every thread count. The order changes only which
+  // refusal is reported, never whether a move is accepted.
+  const bool fans_first = opt_.partial_weld_tries > 0 || opt_.fill_holes;
   if (fans_first)
     if (const char* why = check_fans(mv)) return why;
   if (const char* why = check_distortion(mv)) return why;

@@ -614,6 +614,9 @@ void add_counters(MergeReport& to, const MergeReport& from) {
   to.repairs_accepted += from.repairs_accepted;
   to.partial_weld_retries += from.partial_weld_retries;
   to.partial_welds_accepted += from.partial_welds_accepted;
+  to.hole_fill_retries += from.hole_fill_retries;
+  to.hole_fills_accepted += from.hole_fills_accepted;
+  to.holes_filled += from.holes_filled;
   to.cuts_attempted += from.cuts_attempted;
   to.cuts_closed += from.cuts_closed;
   to.cut_edges_closed += from.cut_edges_closed;

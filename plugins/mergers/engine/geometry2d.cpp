@@ -254,4 +254,60 @@ bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2
   return false;
 }
 
+namespace {
+/// Whether p lies inside or on triangle (a, b, c) of orientation sign s (+1 or -1).
+bool in_triangle(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                 const Eigen::Vector2d& c, double s) {
+  return s * orient2d(a, b, p) >= 0 && s * orient2d(b, c, p) >= 0 && s * orient2d(c, a, p) >= 0;
+}
+
+/// Whether corner i of the remaining polygon `idx` is an ear of orientation s.
+bool is_ear(const std::vector<Eigen::Vector2d>& poly, const std::vector<int>& idx, size_t i, double s) {
+  const size_t n = idx.size();
+  const int ia = idx[(i + n - 1) % n], ib = idx[i], ic = idx[(i + 1) % n];
+  const Eigen::Vector2d &a = poly[static_cast<size_t>(ia)], &b = poly[static_cast<size_t>(ib)],
+                        &c = poly[static_cast<size_t>(ic)];
+  if (s * orient2d(a, b, c) <= 0) return false;  // reflex or flat corner
+  for (int j : idx) {
+    if (j == ia || j == ib || j == ic) continue;
+    if (in_triangle(poly[static_cast<size_t>(j)], a, b, c, s)) return false;
+  }
+  return true;
+}
+}  // namespace
+
+bool ear_clip(const std::vector<Eigen::Vector2d>& poly, std::vector<std::array<int, 3>>& out) {
+  out.clear();
+  const size_t n = poly.size();
+  if (n < 3) return false;
+  double area2 = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d &p = poly[i], &q = poly[(i + 1) % n];
+    area2 += p.x() * q.y() - p.y() * q.x();
+  }
+  if (area2 == 0 || !std::isfinite(area2)) return false;
+  const double s = area2 > 0 ? 1.0 : -1.0;
+  std::vector<int> idx(n);
+  for (size_t i = 0; i < n; ++i) idx[i] = static_cast<int>(i);
+  size_t since_cut = 0, i = 0;
+  while (idx.size() > 3) {
+    if (since_cut > idx.size()) return false;  // a whole turn without an ear: not simple
+    i %= idx.size();
+    if (!is_ear(poly, idx, i, s)) {
+      ++i;
+      ++since_cut;
+      continue;
+    }
+    const size_t m = idx.size();
+    out.push_back({idx[(i + m - 1) % m], idx[i], idx[(i + 1) % m]});
+    idx.erase(idx.begin() + static_cast<std::ptrdiff_t>(i));
+    since_cut = 0;
+  }
+  const Eigen::Vector2d &a = poly[static_cast<size_t>(idx[0])], &b = poly[static_cast<size_t>(idx[1])],
+                        &c = poly[static_cast<size_t>(idx[2])];
+  if (s * orient2d(a, b, c) <= 0) return false;
+  out.push_back({idx[0], idx[1], idx[2]});
+  return true;
+}
+
 }  // namespace texdefrag::merge

@@ -80,4 +80,11 @@ bool triangles_overlap(const Tri2& a, const Tri2& b);
 bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2>& all, size_t rigid = 0,
                           const std::function<bool(const Tri2&, const Tri2&)>& is_new = {});
 
+/// Ear-clipping triangulation of a simple polygon (no repeated corner, no crossing edges), in
+/// either orientation: every triangle has the polygon's orientation and a positive area
+/// (|orient2d| > 0), corners index `poly`; n - 2 triangles. Returns false (out unspecified) when the
+/// polygon has fewer than 3 corners, zero area, or no ear can be cut (it is not simple). O(n^2) for
+/// polygons whose ears are found early, O(n^3) at worst: callers bound n.
+bool ear_clip(const std::vector<Eigen::Vector2d>& poly, std::vector<std::array<int, 3>>& out);
+
 }  // namespace texdefrag::merge

@@ -123,6 +123,11 @@ std::vector<OptionSpec> trial_and_weld_specs() {
               "A move refused as fan_overlap at a welded end of its seam is tried again with that seam vertex left "
               "unwelded (its seam edge stays cut), up to this many times; 0: never")
           .range(0, 16),
+      opt_bool("fill_holes", false,
+               "A move refused as flip, collapse or fold whose local problem touches a hole of the merged chart "
+               "(a boundary loop other than its outer one) is tried again with temporary triangles across its holes "
+               "in the solve, so that a chart that is not a disk keeps its holes open while it deforms; the "
+               "triangles never reach the atlas"),
       opt_bool("cross_page", true,
                "Merge charts whose texels lie on different input pages (each face keeps its own page's texels as "
                "rest shape); false keeps every chart on one input page")
@@ -161,6 +166,7 @@ MergeOptions merge_options_from(const Options& o) {
   m.fan_targets = o.get_bool("fan_targets");
   m.fan_margin = o.get_double("fan_margin");
   m.partial_weld_tries = static_cast<int>(o.get_int("partial_weld_tries"));
+  m.fill_holes = o.get_bool("fill_holes");
   m.second_pass = o.get_enum<SecondPass>("second_pass", {{"none", SecondPass::None}, {"across_regions", SecondPass::AcrossRegions}});
   m.second_pass_priority =
       o.get_enum<Priority>("second_pass_priority", {{"planarity", Priority::Planarity}, {"mmethod", Priority::MMethod}});
@@ -208,6 +214,9 @@ json MergeReport::to_json() const {
   j["repairs_accepted"] = repairs_accepted;
   j["partial_weld_retries"] = partial_weld_retries;
   j["partial_welds_accepted"] = partial_welds_accepted;
+  j["hole_fill_retries"] = hole_fill_retries;
+  j["hole_fills_accepted"] = hole_fills_accepted;
+  j["holes_filled"] = holes_filled;
   j["cut_edges_in"] = cut_edges_in;
   j["cuts_attempted"] = cuts_attempted;
   j["cuts_closed"] = cuts_closed;

@@ -1,0 +1,177 @@
+// Hole filling (docs/mergers.md, "Hole filling") on meshes small enough to check by hand:
+// ear clipping of small polygons, the hole loop of a square ring of eight squares, and a merge onto
+// that ring whose local solve gets the two triangles across its hole.
+#include "arap_solver.h"
+#include "engine_internal.h"
+#include "geometry2d.h"
+#include "test_support.h"
+
+#include "texdefrag/core/distortion.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+namespace texdefrag::merge {
+namespace {
+
+double polygon_area2(const std::vector<Vec2>& p) {
+  double a = 0;
+  for (size_t i = 0; i < p.size(); ++i) a += p[i].x() * p[(i + 1) % p.size()].y() - p[i].y() * p[(i + 1) % p.size()].x();
+  return a;
+}
+
+/// Every triangle has the polygon's orientation and the areas add up to the polygon's.
+void expect_triangulates(const std::vector<Vec2>& p, const std::vector<std::array<int, 3>>& tris) {
+  ASSERT_EQ(tris.size(), p.size() - 2);
+  const double whole = polygon_area2(p);
+  double sum = 0;
+  for (const auto& t : tris) {
+    const double a = orient2d(p[static_cast<size_t>(t[0])], p[static_cast<size_t>(t[1])], p[static_cast<size_t>(t[2])]);
+    EXPECT_GT(a * whole, 0);
+    sum += a;
+  }
+  EXPECT_NEAR(sum, whole, 1e-12);
+}
+
+TEST(MergeEngineHoles, EarClipCutsASquareIntoTwoTrianglesOfItsOrientation) {
+  std::vector<Vec2> sq{{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  std::vector<std::array<int, 3>> tris;
+  ASSERT_TRUE(ear_clip(sq, tris));
+  expect_triangulates(sq, tris);
+  std::reverse(sq.begin(), sq.end());  // clockwise: the triangles turn clockwise too
+  ASSERT_TRUE(ear_clip(sq, tris));
+  expect_triangulates(sq, tris);
+}
+
+TEST(MergeEngineHoles, EarClipSkipsTheReflexCornerOfAnLShape) {
+  // An L of three unit squares; (1, 1) is reflex, so no triangle may have it as its ear tip.
+  const std::vector<Vec2> l{{0, 0}, {2, 0}, {2, 1}, {1, 1}, {1, 2}, {0, 2}};
+  std::vector<std::array<int, 3>> tris;
+  ASSERT_TRUE(ear_clip(l, tris));
+  expect_triangulates(l, tris);
+  EXPECT_NEAR(polygon_area2(l), 6.0, 1e-12);  // twice the area of three unit squares
+}
+
+TEST(MergeEngineHoles, EarClipRefusesABowTieAndAFlatPolygon) {
+  std::vector<std::array<int, 3>> tris;
+  EXPECT_FALSE(ear_clip({{0, 0}, {1, 1}, {1, 0}, {0, 1}}, tris));  // edges cross
+  EXPECT_FALSE(ear_clip({{0, 0}, {1, 0}, {2, 0}}, tris));          // zero area
+  EXPECT_FALSE(ear_clip({{0, 0}, {1, 0}}, tris));                  // two corners
+}
+
+/// Adds face (a, b, c) on page 0 with texels ta, tb, tc (a texcoord per corner: every face its own
+/// wedges until the charts are built, which weld equal texcoords of a vertex).
+void add_face(TexturedMesh& m, std::array<int, 3> v, std::array<Vec2, 3> t) {
+  Face f;
+  f.page = 0;
+  f.source_line = static_cast<int>(m.faces.size()) + 1;
+  for (size_t k = 0; k < 3; ++k) {
+    f.v[k] = v[k];
+    f.vt[k] = static_cast<int>(m.texcoords.size());
+    m.texcoords.push_back(t[k] / 128.0);
+  }
+  m.faces.push_back(f);
+}
+
+/// A 3 x 3 grid of unit squares in z = 0 without its middle square (vertex (i, j) = 4j + i), laid
+/// out at 16 texels per unit from (16, 16): one chart, a ring with a square hole (corners 5, 6, 10,
+/// 9). With `tab`, one more square (vertices 16-17 at y = -1 under the ring's bottom edge 1 - 2)
+/// laid out elsewhere on the page, `stretch` times wider and turned: a chart of its own.
+TexturedMesh square_ring(bool tab, double stretch = 1.5) {
+  TexturedMesh m = test::one_page_mesh(128);
+  for (int j = 0; j <= 3; ++j)
+    for (int i = 0; i <= 3; ++i) m.positions.emplace_back(i, j, 0);
+  auto t = [](int v) { return Vec2(16 + 16 * (v % 4), 16 + 16 * (v / 4)); };
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) {
+      if (i == 1 && j == 1) continue;
+      const int a = 4 * j + i, b = a + 1, c = a + 5, e = a + 4;
+      add_face(m, {a, b, c}, {t(a), t(b), t(c)});
+      add_face(m, {a, c, e}, {t(a), t(c), t(e)});
+    }
+  if (tab) {
+    m.positions.emplace_back(1, -1, 0);
+    m.positions.emplace_back(2, -1, 0);
+    // The tab's texels: 1.5 times wider than the ring's (24 texels for its edge 1 - 2 against 16),
+    // turned by 0.3 rad, away from the ring: after the rigid fit each end of the seam is 4 texels from
+    // its twin, so the free region (5 x 4 texels) reaches the hole 16 texels away.
+    const double c = std::cos(0.3), s = std::sin(0.3);
+    auto tt = [&](double x, double y) {
+      return Vec2(80 + 16 * (c * stretch * x - s * y), 70 + 16 * (s * stretch * x + c * y));
+    };
+    add_face(m, {16, 17, 2}, {tt(0, 0), tt(1, 0), tt(1, 1)});
+    add_face(m, {16, 2, 1}, {tt(0, 0), tt(1, 1), tt(0, 1)});
+  }
+  return m;
+}
+
+TEST(MergeEngineHoles, TheRingHasOneHoleLoopOfFourWedgesAgainstItsFaces) {
+  test::Run run(square_ring(false));
+  ArapSolver solver{ArapSettings{}};
+  detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{}, solver);
+  engine.setup();
+  const Atlas& at = run.ctx.atlas;
+  ASSERT_EQ(at.num_charts, 1);
+  detail::Move mv;
+  mv.big = at.face_chart[0];
+  for (int f = 0; f < 16; ++f) mv.prob_faces.push_back(f);
+  for (const auto& fw : at.face_wedge) mv.free_w.insert(mv.free_w.end(), fw.begin(), fw.end());
+  const auto holes = engine.hole_loops(mv);
+  ASSERT_EQ(holes.size(), 1u);  // the outer loop (12 wedges) runs with the faces: not a hole
+  // The hole's corners: vertices 5, 6, 10, 9 at texels (32, 32), (48, 32), (48, 48), (32, 48).
+  std::set<std::pair<double, double>> corners;
+  for (int w : holes[0]) corners.emplace(at.wedge_uv[static_cast<size_t>(w)].x(), at.wedge_uv[static_cast<size_t>(w)].y());
+  EXPECT_EQ(corners, (std::set<std::pair<double, double>>{{32, 32}, {48, 32}, {48, 48}, {32, 48}}));
+}
+
+TEST(MergeEngineHoles, AMergeOntoTheRingNeedsNoRetryWhenItsSolveIsAccepted) {
+  MergeOptions opt;
+  opt.fill_holes = true;
+  opt.global_bound = 1;  // the weld's cost is not the question here
+  test::Run run(square_ring(true));
+  ArapSolver solver{ArapSettings{}};
+  detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver);
+  engine.setup();
+  const Atlas& at = run.ctx.atlas;
+  std::string reason;
+  ASSERT_TRUE(engine.try_merge(at.face_chart[0], at.face_chart[16], reason)) << reason;
+  for (int f = 1; f < 18; ++f) EXPECT_EQ(at.face_chart[static_cast<size_t>(f)], at.face_chart[0]);
+  EXPECT_EQ(atlas_distortion(run.mesh, at).flipped, 0u);
+  EXPECT_EQ(engine.main_counters().hole_fill_retries, 0u);  // accepted as it was: never filled
+  EXPECT_EQ(engine.main_counters().holes_filled, 0u);
+}
+
+/// With min_singular_value 0.95 the weld of a tab 2.5 times wider (seam ends 12 texels from their
+/// twins: the free region, 60 texels, holds the whole ring) compresses the ring's squares too much:
+/// refused as collapse. Its problem touches the ring's hole, so with fill_holes the move is
+/// tried once more with the hole's two triangles in the solve (still refused: the compression is at
+/// the seam, not the hole), and the atlas comes back bit for bit either way.
+TEST(MergeEngineHoles, ACollapseRefusalTouchingTheHoleIsTriedAgainWithTheHoleFilled) {
+  for (bool fill : {false, true}) {
+    MergeOptions opt;
+    opt.fill_holes = fill;
+    opt.global_bound = 1;
+    opt.min_singular_value = 0.95;
+    test::Run run(square_ring(true, 2.5));
+    ArapSolver solver{ArapSettings{}};
+    detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver);
+    engine.setup();
+    const Atlas& at = run.ctx.atlas;
+    const Atlas before = at;
+    std::string reason;
+    EXPECT_FALSE(engine.try_merge(at.face_chart[0], at.face_chart[16], reason));
+    EXPECT_EQ(reason, "collapse");
+    EXPECT_EQ(at.wedge_uv, before.wedge_uv);
+    EXPECT_EQ(at.face_wedge, before.face_wedge);
+    EXPECT_EQ(at.face_chart, before.face_chart);
+    const MergeReport& r = engine.main_counters();
+    EXPECT_EQ(r.attempted, 1u);  // the retry is the same move, counted once
+    EXPECT_EQ(r.hole_fill_retries, fill ? 1u : 0u);
+    EXPECT_EQ(r.holes_filled, fill ? 1u : 0u);
+    EXPECT_EQ(r.hole_fills_accepted, 0u);
+  }
+}
+
+}  // namespace
+}  // namespace texdefrag::merge
