@@ -19,6 +19,7 @@
 #include <atomic>
 #include <cmath>
 #include <functional>
+#include <future>
 #include <limits>
 #include <map>
 #include <memory>
@@ -241,6 +242,10 @@ class Engine {
     watch_at_ = d;
     watch_ = std::move(f);
   }
+  /// The input's charts (build_charts(mesh).atlas.face_chart: the flip groups of the closing distortion
+  /// summary), when the caller has them or builds them beside the run (run_merges shares them between
+  /// its engines); without, run() builds them at its end.
+  void input_charts_from(std::shared_future<std::vector<int>> charts) { input_charts_ = std::move(charts); }
   /// run() throws Cancelled at its next queue entry or set-up step once *flag is true.
   void cancel_when(const std::atomic<bool>* flag) { cancel_ = flag; }
   struct Cancelled {};
@@ -397,6 +402,8 @@ class Engine {
   /// against its rest shape (det J < 0).
   double oriented_altitude(int f) const;
   void setup_charts();
+  /// Marks the input charts whose own triangles overlap (ChartInfo::self_overlap), charts side by side.
+  void mark_self_overlapping_charts();
   void setup_seams_and_grids();
   int corner_of(int f, int v) const {
     const auto& fv = topo_.face_vertex[static_cast<size_t>(f)];
@@ -593,6 +600,7 @@ class Engine {
   double watch_at_ = 0;                  ///< watch_distortion's level
   std::function<void()> watch_;          ///< watch_distortion's call (empty once made)
   const std::atomic<bool>* cancel_ = nullptr;  ///< cancel_when's flag
+  std::shared_future<std::vector<int>> input_charts_;  ///< input_charts_from's (none: run() builds them)
   /// Calls watch_ when the main lane's error sum reached watch_at_ (on run()'s thread only).
   void check_watch();
   /// Throws Cancelled when *cancel_ (any thread).

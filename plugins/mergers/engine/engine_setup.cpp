@@ -248,18 +248,31 @@ void Engine::setup_charts() {
     if (ch.locked) ++rep_.locked_charts;
     refresh_planarity(c);
   }
+  mark_self_overlapping_charts();
+}
+
+void Engine::mark_self_overlapping_charts() {
   // Input charts whose triangles already overlap (photogrammetry charts can be multi-sheeted): the
   // boundary-crossing test does not see a merge that lands on another sheet, so merges touching
-  // them also test triangles (see try_merge).
-  for (int c = 0; c < nc; ++c) {
-    ChartInfo& ch = C(c);
-    if (ch.faces.size() < 2) continue;
+  // them also test triangles (see try_merge). Each chart is tested on its own: blocks of charts side
+  // by side (1.2 s of one thread on the 1M-face synthetic factory's 90,968 charts).
+  const size_t nc = charts_.size();
+  constexpr size_t kBlock = 256;
+  std::vector<char> overlap(nc, 0);
+  parallel_for((nc + kBlock - 1) / kBlock, [&](size_t b) {
     std::vector<Tri2> tris;
-    tris.reserve(ch.faces.size());
-    for (int f : ch.faces)
-      if (rest_w_[static_cast<size_t>(f)] > 0) tris.push_back(tri2(f));
-    ch.self_overlap = any_triangle_overlap(tris, {});
-    if (ch.self_overlap) ++rep_.self_overlapping_charts;
+    for (size_t c = b * kBlock; c < std::min(nc, (b + 1) * kBlock); ++c) {
+      const ChartInfo& ch = charts_[c];
+      if (ch.faces.size() < 2) continue;
+      tris.clear();
+      for (int f : ch.faces)
+        if (rest_w_[static_cast<size_t>(f)] > 0) tris.push_back(tri2(f));
+      overlap[c] = any_triangle_overlap(tris, {}) ? 1 : 0;
+    }
+  });
+  for (size_t c = 0; c < nc; ++c) {
+    charts_[c].self_overlap = overlap[c] != 0;
+    if (charts_[c].self_overlap) ++rep_.self_overlapping_charts;
   }
 }
 
@@ -670,7 +683,9 @@ MergeReport Engine::run(const Progress& progress) {
   add_counters(rep_, main_.rep);
   rep_.mean_free_vertices = main_.free_count ? main_.free_total / static_cast<double>(main_.free_count) : 0;
   rep_.charts_out = static_cast<size_t>(at_.compact());
-  const DistortionSummary ds = atlas_distortion(mesh_, at_, build_charts(mesh_, topo_).atlas.face_chart);
+  std::vector<int> own;
+  if (!input_charts_.valid()) own = build_charts(mesh_, topo_).atlas.face_chart;
+  const DistortionSummary ds = atlas_distortion(mesh_, at_, input_charts_.valid() ? input_charts_.get() : own);
   for (char m : fmirror_) rep_.mirrored_faces_out += m != 0;
   rep_.distortion_out = ds.arap;
   rep_.flipped_out = ds.flipped;
