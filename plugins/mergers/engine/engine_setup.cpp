@@ -336,15 +336,24 @@ void Engine::setup_seams_and_grids() {
     }
     tri_cell_ = n > 0 && sum > 0 ? 2 * sum / static_cast<double>(n) : 1;
   }
-  for (size_t f = 0; f < nf; ++f)
-    if (rest_w_[f] > 0 && at_.face_chart[f] >= 0) grid_insert(at_.face_chart[f], static_cast<int>(f));
   eowner_.assign(3 * nf, -1);
   ecells_.assign(3 * nf, {1, 1, 0, 0});
   edead_.assign(3 * nf, 0);
   emoved_.assign(3 * nf, 0);
   eseen_.assign(3 * nf, 0);
-  for (int c = 0; c < at_.num_charts; ++c)
-    for (const auto& [f, k] : C(c).boundary) seg_insert(c, 3 * f + k);
+  // Each chart's grids get its faces and boundary edges in the order of ChartInfo::faces (face
+  // order) and ChartInfo::boundary, whatever thread fills them: blocks of charts side by side
+  // (0.43 s of one thread on the 1M-face synthetic factory).
+  const size_t nc = static_cast<size_t>(at_.num_charts);
+  constexpr size_t kBlock = 256;
+  parallel_for((nc + kBlock - 1) / kBlock, [&](size_t b) {
+    for (size_t c = b * kBlock; c < std::min(nc, (b + 1) * kBlock); ++c) {
+      const int ci = static_cast<int>(c);
+      for (int f : C(ci).faces)
+        if (rest_w_[static_cast<size_t>(f)] > 0) grid_insert(ci, f);
+      for (const auto& [f, k] : C(ci).boundary) seg_insert(ci, 3 * f + k);
+    }
+  });
 }
 
 Mat2 Engine::jacobian(int f) const {
