@@ -1040,6 +1040,11 @@ size_t fit_least_squares(const std::vector<int>& faces, const JobSource& source,
 // ------------------------------------------------------------------------------------------------
 // Gutter fill
 
+/// Rows per block of the gutter fill's levels filled side by side (make_coarse, push_level).
+constexpr int kFillRows = 64;
+/// Blocks of kFillRows rows covering h rows.
+size_t row_blocks(int h) { return static_cast<size_t>((h + kFillRows - 1) / kFillRows); }
+
 /// One level of pull_push's pyramid: w * h texels, C floats each (`col`), and whether each has data.
 struct PullLevel {
   int w = 0, h = 0;
@@ -1049,69 +1054,76 @@ struct PullLevel {
 
 /// Pull: the level above a w x h one with C channels: each texel the average of the available
 /// texels of its 2x2 block (has_at(x, y) says which; col_at(x, y, acc) adds one's colour to acc),
-/// without data when none is available.
+/// without data when none is available. Rows are independent: blocks of kFillRows rows on up to
+/// `threads` threads.
 template <class HasAt, class ColAt>
-PullLevel make_coarse(int w, int h, int C, HasAt&& has_at, ColAt&& col_at) {
+PullLevel make_coarse(int w, int h, int C, HasAt&& has_at, ColAt&& col_at, int threads) {
   PullLevel L;
   L.w = (w + 1) / 2;
   L.h = (h + 1) / 2;
   L.col.assign(static_cast<size_t>(L.w) * static_cast<size_t>(L.h) * static_cast<size_t>(C), 0.f);
   L.has.assign(static_cast<size_t>(L.w) * static_cast<size_t>(L.h), 0);
-  for (int y = 0; y < L.h; ++y)
-    for (int x = 0; x < L.w; ++x) {
-      float acc[4] = {0, 0, 0, 0};
-      int n = 0;
-      for (int dy = 0; dy < 2; ++dy)
-        for (int dx = 0; dx < 2; ++dx) {
-          const int fx = 2 * x + dx, fy = 2 * y + dy;
-          if (fx >= w || fy >= h || !has_at(fx, fy)) continue;
-          col_at(fx, fy, acc);
-          ++n;
-        }
-      if (n == 0) continue;
-      const size_t ci = static_cast<size_t>(y) * static_cast<size_t>(L.w) + static_cast<size_t>(x);
-      L.has[ci] = 1;
-      for (int c = 0; c < C; ++c) L.col[ci * static_cast<size_t>(C) + static_cast<size_t>(c)] = acc[c] / static_cast<float>(n);
-    }
+  parallel_for(row_blocks(L.h), threads, [&](size_t blk) {
+    for (int y = static_cast<int>(blk) * kFillRows; y < std::min(L.h, (static_cast<int>(blk) + 1) * kFillRows); ++y)
+      for (int x = 0; x < L.w; ++x) {
+        float acc[4] = {0, 0, 0, 0};
+        int n = 0;
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dx = 0; dx < 2; ++dx) {
+            const int fx = 2 * x + dx, fy = 2 * y + dy;
+            if (fx >= w || fy >= h || !has_at(fx, fy)) continue;
+            col_at(fx, fy, acc);
+            ++n;
+          }
+        if (n == 0) continue;
+        const size_t ci = static_cast<size_t>(y) * static_cast<size_t>(L.w) + static_cast<size_t>(x);
+        L.has[ci] = 1;
+        for (int c = 0; c < C; ++c) L.col[ci * static_cast<size_t>(C) + static_cast<size_t>(c)] = acc[c] / static_cast<float>(n);
+      }
+  });
   return L;
 }
 
 /// Push: every texel of a w x h level (C channels) for which needs(x, y) holds gets store(x, y, v)
 /// with v the bilinear upsampling of the (fully filled) coarser level P at its position
 /// ((x + 0.5) / 2 - 0.5, (y + 0.5) / 2 - 0.5). Per fine row the two coarse rows are blended once
-/// into `blend` (scratch; when the row needs anything), then each texel blends horizontally.
+/// into a scratch row (when the row needs anything), then each texel blends horizontally. Rows are
+/// independent: blocks of kFillRows rows on up to `threads` threads.
 template <class Needs, class Store>
-void push_level(const PullLevel& P, int w, int h, int C, std::vector<float>& blend, Needs&& needs, Store&& store) {
-  blend.resize(static_cast<size_t>(P.w) * static_cast<size_t>(C));
-  for (int y = 0; y < h; ++y) {
-    bool blended = false;
-    const double gy = std::max((y + 0.5) / 2 - 0.5, 0.0);
-    const int y0 = std::min(static_cast<int>(gy), P.h - 1), y1 = std::min(y0 + 1, P.h - 1);
-    const float fy = static_cast<float>(gy - y0);
-    for (int x = 0; x < w; ++x) {
-      if (!needs(x, y)) continue;
-      if (!blended) {
-        const float* r0 = &P.col[static_cast<size_t>(y0) * static_cast<size_t>(P.w) * static_cast<size_t>(C)];
-        const float* r1 = &P.col[static_cast<size_t>(y1) * static_cast<size_t>(P.w) * static_cast<size_t>(C)];
-        for (size_t k = 0; k < blend.size(); ++k) blend[k] = r0[k] + fy * (r1[k] - r0[k]);
-        blended = true;
+void push_level(const PullLevel& P, int w, int h, int C, Needs&& needs, Store&& store, int threads) {
+  parallel_for(row_blocks(h), threads, [&](size_t blk) {
+    std::vector<float> blend(static_cast<size_t>(P.w) * static_cast<size_t>(C));
+    for (int y = static_cast<int>(blk) * kFillRows; y < std::min(h, (static_cast<int>(blk) + 1) * kFillRows); ++y) {
+      bool blended = false;
+      const double gy = std::max((y + 0.5) / 2 - 0.5, 0.0);
+      const int y0 = std::min(static_cast<int>(gy), P.h - 1), y1 = std::min(y0 + 1, P.h - 1);
+      const float fy = static_cast<float>(gy - y0);
+      for (int x = 0; x < w; ++x) {
+        if (!needs(x, y)) continue;
+        if (!blended) {
+          const float* r0 = &P.col[static_cast<size_t>(y0) * static_cast<size_t>(P.w) * static_cast<size_t>(C)];
+          const float* r1 = &P.col[static_cast<size_t>(y1) * static_cast<size_t>(P.w) * static_cast<size_t>(C)];
+          for (size_t k = 0; k < blend.size(); ++k) blend[k] = r0[k] + fy * (r1[k] - r0[k]);
+          blended = true;
+        }
+        const double gx = std::max((x + 0.5) / 2 - 0.5, 0.0);
+        const int x0 = std::min(static_cast<int>(gx), P.w - 1), x1 = std::min(x0 + 1, P.w - 1);
+        const float fx = static_cast<float>(gx - x0);
+        const float* a = &blend[static_cast<size_t>(x0) * static_cast<size_t>(C)];
+        const float* b = &blend[static_cast<size_t>(x1) * static_cast<size_t>(C)];
+        float v[4];
+        for (int c = 0; c < C; ++c) v[c] = a[c] + fx * (b[c] - a[c]);
+        store(x, y, v);
       }
-      const double gx = std::max((x + 0.5) / 2 - 0.5, 0.0);
-      const int x0 = std::min(static_cast<int>(gx), P.w - 1), x1 = std::min(x0 + 1, P.w - 1);
-      const float fx = static_cast<float>(gx - x0);
-      const float* a = &blend[static_cast<size_t>(x0) * static_cast<size_t>(C)];
-      const float* b = &blend[static_cast<size_t>(x1) * static_cast<size_t>(C)];
-      float v[4];
-      for (int c = 0; c < C; ++c) v[c] = a[c] + fx * (b[c] - a[c]);
-      store(x, y, v);
     }
-  }
+  });
 }
 
 /// Pull-push: covered texels stay as they are; every other texel gets the colour of a pyramid of
 /// averages of covered texels (pull: 2x2 averages of available texels; push: bilinear upsampling
 /// of the coarser level into texels that had no data). No covered texel: the page is unchanged.
-void pull_push(Image& img, const std::vector<uint8_t>& state) {
+/// Each level's rows on up to `threads` threads (the same floats for any count).
+void pull_push(Image& img, const std::vector<uint8_t>& state, int threads) {
   const int C = img.channels;
   std::vector<PullLevel> levels;
   // Level 1 from the page bytes.
@@ -1121,7 +1133,8 @@ void pull_push(Image& img, const std::vector<uint8_t>& state) {
       [&](int x, int y, float* acc) {
         const uint8_t* p = img.at(x, y);
         for (int c = 0; c < C; ++c) acc[c] += static_cast<float>(p[c]);
-      }));
+      },
+      threads));
   while (levels.back().w > 1 || levels.back().h > 1) {
     const PullLevel& F = levels.back();
     PullLevel L = make_coarse(
@@ -1129,29 +1142,31 @@ void pull_push(Image& img, const std::vector<uint8_t>& state) {
         [&](int x, int y, float* acc) {
           const float* p = &F.col[(static_cast<size_t>(y) * static_cast<size_t>(F.w) + static_cast<size_t>(x)) * static_cast<size_t>(C)];
           for (int c = 0; c < C; ++c) acc[c] += p[c];
-        });
+        },
+        threads);
     levels.push_back(std::move(L));
   }
   if (!levels.back().has[0]) return;  // nothing covered
 
   // Push, coarse to fine: the levels, then the page's texels that are not covered.
-  std::vector<float> blend;
   for (size_t l = levels.size() - 1; l-- > 0;) {
     PullLevel& L = levels[l];
     const auto at = [&L](int x, int y) { return static_cast<size_t>(y) * static_cast<size_t>(L.w) + static_cast<size_t>(x); };
-    push_level(levels[l + 1], L.w, L.h, C, blend, [&](int x, int y) { return !L.has[at(x, y)]; },
+    push_level(levels[l + 1], L.w, L.h, C, [&](int x, int y) { return !L.has[at(x, y)]; },
                [&](int x, int y, const float* v) {
                  const size_t ci = at(x, y);
                  std::copy(v, v + C, &L.col[ci * static_cast<size_t>(C)]);
                  L.has[ci] = 1;
-               });
+               },
+               threads);
   }
-  push_level(levels[0], W, H, C, blend,
+  push_level(levels[0], W, H, C,
              [&](int x, int y) { return state[static_cast<size_t>(y) * static_cast<size_t>(W) + static_cast<size_t>(x)] == 0; },
              [&](int x, int y, const float* v) {
                uint8_t* p = img.at(x, y);
                for (int c = 0; c < C; ++c) p[c] = to_byte(v[c]);
-             });
+             },
+             threads);
 }
 
 /// Side of the blocks of fill_blocks: a JPEG block (8 x 8 texels from the page's top-left corner;
@@ -1499,7 +1514,7 @@ void render_page(const PageTask& task, const JobSource& source, const std::vecto
   switch (opt.fill) {
     case GutterFill::None: break;
     case GutterFill::Dilate: dilate(out, cv.state, opt.dilate_width); break;
-    case GutterFill::PullPush: pull_push(out, cv.state); break;
+    case GutterFill::PullPush: pull_push(out, cv.state, threads); break;
   }
   if (opt.fill_blocks && opt.fill == GutterFill::PullPush) fill_blocks(out, cv.state, threads);
   prog.tick(n / kFillTexelsPerUnit);
