@@ -946,11 +946,38 @@ class SquareTetris : public Packer {
     return out;
   }
 
+  /// Per chart id: whether reuse's masks serve it in plan_packing (see there; none without reuse).
+  static std::vector<uint8_t> mask_donors(const PackInput& in, const std::vector<int>& order, size_t rects,
+                                          const PackPlan* reuse, const PackInput* reuse_in) {
+    std::vector<uint8_t> out(in.charts.size(), 0);
+    if (!reuse) return out;
+    for (size_t n = 0; n < order.size(); ++n) {
+      const size_t id = static_cast<size_t>(order[n]);
+      out[id] = id < reuse->profiles.size() && !reuse->profiles[id].empty() ? 1 : 0;
+    }
+    if (!reuse_in) return out;
+    // note: a plan without a dropped tail packs its split as it is: rectangles [0, rects) of it.
+    std::vector<uint8_t> was_rect(in.charts.size(), 0);
+    for (size_t n = 0; n < reuse->split.size() && n < reuse->rects; ++n) was_rect[static_cast<size_t>(reuse->split[n])] = 1;
+    for (size_t n = 0; n < order.size(); ++n) {
+      const size_t id = static_cast<size_t>(order[n]);
+      const PackChart &c = in.charts[id], &d = reuse_in->charts[id];
+      const bool same = c.base == d.base && c.tris == d.tris && std::equal(c.w, c.w + 4, d.w) &&
+                        std::equal(c.h, c.h + 4, d.h) && std::equal(c.ox, c.ox + 4, d.ox) &&
+                        std::equal(c.oy, c.oy + 4, d.oy) && c.block_aligned == d.block_aligned;
+      out[id] = out[id] && same && (n < rects) == (was_rect[id] != 0) ? 1 : 0;
+    }
+    return out;
+  }
+
   /// The plan for `order` (rectangles [0, tail), then the tail). tail_skipped: the tail is dropped
   /// on the horizon instead of placed by the bottom-left search; its rectangle-like charts are then
-  /// moved to the front of the tail in `order`.
+  /// moved to the front of the tail in `order`. reuse: another plan whose masks serve (or null):
+  /// with reuse_in null, a plan of the same charts split the same way (the block grid aside);
+  /// with reuse_in (its charts), each chart with the same geometry there, placed the same way
+  /// (rectangle or tail).
   PackPlan plan_packing(const PackInput& in, const CommonSettings& s, std::vector<int>& order, size_t tail,
-                        bool tail_skipped, const PackPlan* reuse) const {
+                        bool tail_skipped, const PackPlan* reuse, const PackInput* reuse_in = nullptr) const {
     const double rect_min_fill = options().get_double("rect_min_fill");
     PackPlan t;
     t.rects = tail;
@@ -993,12 +1020,13 @@ class SquareTetris : public Packer {
     // raster serves its turn profiles and its turn-0 mask (it was rasterised twice: 1M factory,
     // rasterising was a third of the packer's CPU).
     // note: another plan's masks serve only when it is of the same charts, split the same way.
-    if (reuse && (reuse->rects != rects || reuse->profiles.size() != in.charts.size())) reuse = nullptr;
+    if (reuse && !reuse_in && (reuse->rects != rects || reuse->profiles.size() != in.charts.size())) reuse = nullptr;
+    const std::vector<uint8_t> donors = mask_donors(in, order, rects, reuse, reuse_in);
     if (rects < order.size() && !tail_skipped)
       parallel_for(order.size(), [&](size_t n) {
         const size_t id = static_cast<size_t>(order[n]);
-        const std::vector<RunMask>* from = reuse ? &reuse->profiles[id] : nullptr;
-        profiles[id] = chart_masks(in.charts[id], n < rects, s, from && !from->empty() ? from : nullptr);
+        const std::vector<RunMask>* from = donors[id] ? &reuse->profiles[id] : nullptr;
+        profiles[id] = chart_masks(in.charts[id], n < rects, s, from);
       });
     // Shape ids and the tail's need, in order (labels only: the same whatever the thread count).
     std::map<std::vector<int>, int> shapes;  // tail masks' cells -> shape id
@@ -1158,7 +1186,10 @@ class SquareTetris : public Packer {
   /// Prepares a packing with settings s: charts, split into rectangles and tail, plan. reuse: the
   /// plan of a packing without block grid whose split and masks this one takes (the block grid
   /// changes no size or cell), or null.
-  Packed prepare_packing(const StageContext& ctx, const CommonSettings& s, const PackPlan* reuse) const {
+  /// reuse_in: when given, reuse's charts, of which only those with the same geometry take its
+  /// masks (the free trial's: every chart but the partly exact ones); the split is made again.
+  Packed prepare_packing(const StageContext& ctx, const CommonSettings& s, const PackPlan* reuse,
+                         const PackInput* reuse_in = nullptr) const {
     const std::string name = "packers.square_tetris";
     Packed out;
     out.in = packing::prepare_charts(ctx, s, name);
@@ -1166,14 +1197,14 @@ class SquareTetris : public Packer {
     packing::check_chart_sizes(in, s, name);
     // note: another plan's split serves as it is (the big charts' rasters decide it: 78% of the 1M
     // factory's faces).
-    const bool resplit = !reuse || reuse->split.empty();
+    const bool resplit = !reuse || reuse_in || reuse->split.empty();
     std::vector<int> order = resplit ? packing::order_by_area(in, s) : reuse->split;
     const size_t tail = resplit ? split_rectangles(in, s, order) : reuse->split_rects;
     const std::vector<int> split = order;
     const long long tail_max = options().get_int("tail_max_charts");
     out.tail_charts = order.size() - tail;
     out.tail_skipped = tail_max > 0 && out.tail_charts > static_cast<size_t>(tail_max);
-    out.plan = plan_packing(in, s, order, tail, out.tail_skipped, reuse);
+    out.plan = plan_packing(in, s, order, tail, out.tail_skipped, reuse, reuse_in);
     out.plan.split = split;
     out.plan.split_rects = tail;
     out.planned = std::move(order);
@@ -1248,8 +1279,11 @@ class SquareTetris : public Packer {
 
   /// One complete packing of ctx.atlas with settings s. grid: the block-grid trial (on), prepared
   /// here when some chart is exact and packed beside the last width trials, or null.
-  Packed pack_all(const StageContext& ctx, const CommonSettings& s, GridTrial* grid = nullptr) const {
-    Packed out = prepare_packing(ctx, s, nullptr);
+  /// donor, donor_in: another packing's plan and charts whose masks serve the charts of the same
+  /// geometry (prepare_packing's reuse, reuse_in), or null.
+  Packed pack_all(const StageContext& ctx, const CommonSettings& s, GridTrial* grid = nullptr,
+                  const PackPlan* donor = nullptr, const PackInput* donor_in = nullptr) const {
+    Packed out = prepare_packing(ctx, s, donor, donor_in);
     if (grid && std::any_of(out.in.charts.begin(), out.in.charts.end(),
                             [](const PackChart& c) { return c.exact && !c.faces.empty(); })) {
       grid->t = prepare_packing(ctx, grid->g, &out.plan);
@@ -1354,14 +1388,19 @@ class SquareTetris : public Packer {
     size_t grid_trials = 0;  // page widths the block-grid trial packed
     const bool grid_kept = keep_grid_trial(ctx, grid, best, s, grid_trials);
     grid = GridTrial{};
-    best.plan = PackPlan{};  // the masks are not needed any more (memory: 1M faces)
     // Free trial: the same charts with every partly exact chart free to rotate (resampled), kept
     // only when it saves at least free_trial_gain of the page area (or a page).
+    // note: its other charts take the kept packing's masks (t078_L17: preparing the free trial,
+    // its masks rasterised again, was 0.07 of the packer's 0.35 s).
     bool freed = false;
-    if (free_trial_applies(best, s)) {
+    const bool free_trial = free_trial_applies(best, s);
+    PackPlan donor = free_trial ? std::move(best.plan) : PackPlan{};
+    best.plan = PackPlan{};  // the masks are not needed any more (memory: 1M faces)
+    if (free_trial) {
       CommonSettings f = s;
       f.exact_fraction = 1;
-      Packed t = pack_all(ctx, f);
+      Packed t = pack_all(ctx, f, nullptr, &donor, &best.in);
+      donor = PackPlan{};
       t.plan = PackPlan{};
       const double gain = options().get_double("free_trial_gain");
       if (t.r.pages < best.r.pages ||
