@@ -217,7 +217,8 @@ struct Move {
   size_t open_ends = 0;                    ///< partial weld: seam vertices left unwelded (leave_open)
   bool repaired_earlier = false;           ///< partial weld: an earlier try of the move needed the repair
   bool fill_holes = false;                 ///< hole filling: solve with triangles across the merged chart's holes
-  bool holes_refused = false;              ///< hole filling: refused for its shape with a hole in the problem
+  bool holes_refused = false;              ///< hole filling: refused as fan_overlap with a hole in the problem
+  bool fill_failed = false;                ///< hole filling: no hole could be triangulated (solve skipped)
 };
 
 class Engine {

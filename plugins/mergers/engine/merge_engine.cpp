@@ -125,7 +125,7 @@ std::vector<OptionSpec> trial_and_weld_specs() {
               "unwelded (its seam edge stays cut), up to this many times; 0: never")
           .range(0, 16),
       opt_bool("fill_holes", false,
-               "A move refused as flip, collapse or fold whose local problem touches a hole of the merged chart "
+               "A move refused as fan_overlap whose local problem touches a hole of the merged chart "
                "(a boundary loop other than its outer one) is tried again with temporary triangles across its holes "
                "in the solve, so that a chart that is not a disk keeps its holes open while it deforms; the "
                "triangles never reach the atlas"),

@@ -88,8 +88,8 @@ struct MergeOptions {
   /// unwelded (its seam edge stays cut), up to this many times per move; 0 = never (docs/mergers.md
   /// step 7, "Partial welds").
   int partial_weld_tries = 0;
-  /// A move refused as flip, collapse or fold whose local problem touches a hole of the merged chart
-  /// is tried again with temporary triangles across its holes (docs/mergers.md, "Hole filling").
+  /// A move refused as fan_overlap whose local problem touches a hole of the merged chart is tried
+  /// again with temporary triangles across its holes (docs/mergers.md, "Hole filling").
   bool fill_holes = false;
   /// Queue entries the second pass evaluates side by side (docs/mergers.md, "Parallel second pass"):
   /// 0 = twice thread_count() (1 with one thread), 1 = one at a time. Not a stage option (the result is the same for any
@@ -146,8 +146,8 @@ struct MergeReport {
   size_t repairs_tried = 0, repairs_untangled = 0, repairs_accepted = 0;
   /// partial_weld_tries: moves tried again with a seam end left unwelded, and the moves accepted so.
   size_t partial_weld_retries = 0, partial_welds_accepted = 0;
-  /// fill_holes: moves tried again with triangles across their holes (after a flip, collapse or fold
-  /// refusal), those then accepted, and the holes given triangles, summed over those solves.
+  /// fill_holes: moves tried again with triangles across their holes (after a fan_overlap refusal),
+  /// those then accepted, and the holes given triangles, summed over those solves.
   size_t hole_fill_retries = 0, hole_fills_accepted = 0, holes_filled = 0;
   size_t cut_edges_in = 0;       ///< self-seam edges (both sides in one chart) when closing started
   size_t cuts_attempted = 0;     ///< closing moves tried (close_cuts)

@@ -1,6 +1,6 @@
 // Hole filling (docs/mergers.md, "Hole filling") on meshes small enough to check by hand:
-// ear clipping of small polygons, the hole loop of a square ring of eight squares, and a merge onto
-// that ring whose local solve gets the two triangles across its hole.
+// ear clipping of small polygons, the hole loop of a square ring of eight squares, merges onto that
+// ring (accepted at once, refused as collapse, refused as fan_overlap at the hole's border).
 #include "arap_solver.h"
 #include "engine_internal.h"
 #include "geometry2d.h"
@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <set>
 
 namespace texdefrag::merge {
@@ -144,32 +145,109 @@ TEST(MergeEngineHoles, AMergeOntoTheRingNeedsNoRetryWhenItsSolveIsAccepted) {
 
 /// With min_singular_value 0.95 the weld of a tab 2.5 times wider (seam ends 12 texels from their
 /// twins: the free region, 60 texels, holds the whole ring) compresses the ring's squares too much:
-/// refused as collapse. Its problem touches the ring's hole, so with fill_holes the move is
-/// tried once more with the hole's two triangles in the solve (still refused: the compression is at
-/// the seam, not the hole), and the atlas comes back bit for bit either way.
-TEST(MergeEngineHoles, ACollapseRefusalTouchingTheHoleIsTriedAgainWithTheHoleFilled) {
+/// refused as collapse. Only fan_overlap refusals are tried again with the holes filled, so this one
+/// is not, and the atlas comes back bit for bit.
+TEST(MergeEngineHoles, ACollapseRefusalIsNotTriedAgain) {
+  MergeOptions opt;
+  opt.fill_holes = true;
+  opt.global_bound = 1;
+  opt.min_singular_value = 0.95;
+  test::Run run(square_ring(true, 2.5));
+  ArapSolver solver{ArapSettings{}};
+  detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver);
+  engine.setup();
+  const Atlas& at = run.ctx.atlas;
+  const Atlas before = at;
+  std::string reason;
+  EXPECT_FALSE(engine.try_merge(at.face_chart[0], at.face_chart[16], reason));
+  EXPECT_EQ(reason, "collapse");
+  EXPECT_EQ(at.wedge_uv, before.wedge_uv);
+  EXPECT_EQ(at.face_wedge, before.face_wedge);
+  EXPECT_EQ(engine.main_counters().hole_fill_retries, 0u);
+}
+
+/// The ring of square_ring(false) and a triangle (5, 6, c) inside its hole (c = vertex 16 at the
+/// hole's centre (1.5, 1.5)), a chart of its own whose input UV angle at vertex 6 is 100 degrees
+/// instead of 45: welded along 5 - 6 with nothing else free (its seam edge has the ring's length, so
+/// the weld moves nothing), the boundary fan at 6 would turn 270 + 100 = 370 degrees: fan_overlap.
+/// The hole left (5, c, 6, 10, 9) touches the free wedges 5 and 6, so with fill_holes the move is
+/// tried once more; but that loop crosses itself where the triangle overlaps the ring at 6, so no
+/// triangle can be laid across it and the move is refused as before, without a second solve.
+TexturedMesh ring_with_wide_wedge() {
+  TexturedMesh m = square_ring(false);
+  m.positions.emplace_back(1.5, 1.5, 0);
+  // Texels of the triangle: 5 at (80, 80), 6 at (96, 80), c where the edge from 6 turns 100 degrees.
+  const double t = 100.0 * 3.141592653589793 / 180.0;
+  const Vec2 t5(80, 80), t6(96, 80), tc = t6 + 12 * Vec2(-std::cos(t), std::sin(t));
+  add_face(m, {5, 6, 16}, {t5, t6, tc});
+  return m;
+}
+
+TEST(MergeEngineHoles, AFanOverlapAtAHoleIsTriedAgainAndRefusedWhenTheHoleCannotBeFilled) {
   for (bool fill : {false, true}) {
     MergeOptions opt;
     opt.fill_holes = fill;
     opt.global_bound = 1;
-    opt.min_singular_value = 0.95;
-    test::Run run(square_ring(true, 2.5));
+    test::Run run(ring_with_wide_wedge());
     ArapSolver solver{ArapSettings{}};
     detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver);
     engine.setup();
     const Atlas& at = run.ctx.atlas;
+    ASSERT_EQ(at.num_charts, 2);
     const Atlas before = at;
     std::string reason;
     EXPECT_FALSE(engine.try_merge(at.face_chart[0], at.face_chart[16], reason));
-    EXPECT_EQ(reason, "collapse");
+    EXPECT_EQ(reason, "fan_overlap");
     EXPECT_EQ(at.wedge_uv, before.wedge_uv);
     EXPECT_EQ(at.face_wedge, before.face_wedge);
-    EXPECT_EQ(at.face_chart, before.face_chart);
     const MergeReport& r = engine.main_counters();
-    EXPECT_EQ(r.attempted, 1u);  // the retry is the same move, counted once
+    EXPECT_EQ(r.attempted, 1u);  // a retry is the same move, counted once
     EXPECT_EQ(r.hole_fill_retries, fill ? 1u : 0u);
-    EXPECT_EQ(r.holes_filled, fill ? 1u : 0u);
+    EXPECT_EQ(r.holes_filled, 0u);
     EXPECT_EQ(r.hole_fills_accepted, 0u);
+  }
+}
+
+/// add_hole_faces on the ring alone with its hole's four wedges free: two triangles across the
+/// 16 x 16-texel hole, each at rest as it is (deformation gradient the identity), weight its area 128.
+TEST(MergeEngineHoles, TheRingsHoleGetsTwoTrianglesAtRestAsTheyAre) {
+  test::Run run(square_ring(false));
+  ArapSolver solver{ArapSettings{}};
+  detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{}, solver);
+  engine.setup();
+  const Atlas& at = run.ctx.atlas;
+  detail::Move mv;
+  mv.big = at.face_chart[0];
+  for (int f = 0; f < 16; ++f) mv.prob_faces.push_back(f);
+  const auto loops = engine.hole_loops([&] {
+    detail::Move all = mv;
+    for (const auto& fw : at.face_wedge) all.free_w.insert(all.free_w.end(), fw.begin(), fw.end());
+    return all;
+  }());
+  ASSERT_EQ(loops.size(), 1u);
+  mv.free_w = loops[0];  // only the hole's corners are free
+  LocalProblem lp;
+  std::map<int, int> local;
+  for (int w : mv.free_w) {
+    local[w] = static_cast<int>(lp.x.size());
+    lp.x.push_back(at.wedge_uv[static_cast<size_t>(w)]);
+  }
+  lp.num_free = static_cast<int>(lp.x.size());
+  const auto local_of = [&](int w) {
+    if (!local.count(w)) {
+      local[w] = static_cast<int>(lp.x.size());
+      lp.x.push_back(at.wedge_uv[static_cast<size_t>(w)]);
+    }
+    return local[w];
+  };
+  EXPECT_EQ(engine.add_hole_faces(mv, lp, local_of), 1u);
+  ASSERT_EQ(lp.tri.size(), 2u);
+  EXPECT_EQ(lp.x.size(), 4u);  // no wedge beyond the hole's four
+  for (size_t t = 0; t < 2; ++t) {
+    EXPECT_TRUE(deformation_gradient(lp, t).isApprox(Mat2::Identity(), 1e-12));
+    EXPECT_DOUBLE_EQ(lp.weight[t], 128.0);
+    // Oriented as the ring's faces (counter-clockwise texels): rest edge matrix determinant > 0.
+    EXPECT_GT(lp.rest_inv[t].determinant(), 0);
   }
 }
 
