@@ -14,18 +14,7 @@
 namespace texdefrag::merge {
 namespace {
 
-/// Adds face (a, b, c) with texels ta, tb, tc (one texcoord per corner) on page 0 of a 64^2 page.
-void add_face(TexturedMesh& m, std::array<int, 3> v, std::array<Vec2, 3> t) {
-  Face f;
-  f.page = 0;
-  f.source_line = static_cast<int>(m.faces.size()) + 1;
-  for (size_t k = 0; k < 3; ++k) {
-    f.v[k] = v[k];
-    f.vt[k] = static_cast<int>(m.texcoords.size());
-    m.texcoords.push_back(t[k] / 64.0);
-  }
-  m.faces.push_back(f);
-}
+using test::add_texel_face;
 
 /// A 2 x 2 grid of unit squares in z = 0 (vertex (i, j) = 3j + i, two counter-clockwise triangles
 /// per square, 16 texels per unit at offset 8), slit along the edge from (1, 0) to (1, 1): the left
@@ -44,8 +33,8 @@ TexturedMesh slit_grid(double d) {
     for (int i = 0; i < 2; ++i) {
       const int a = 3 * j + i, b = a + 1, c = a + 4, e = a + 3;
       const int side = i == 0 ? -1 : 1;  // which copy of vertex 1 the square uses
-      add_face(m, {a, b, c}, {tex(a, side), tex(b, side), tex(c, side)});
-      add_face(m, {a, c, e}, {tex(a, side), tex(c, side), tex(e, side)});
+      add_texel_face(m, {a, b, c}, {tex(a, side), tex(b, side), tex(c, side)});
+      add_texel_face(m, {a, c, e}, {tex(a, side), tex(c, side), tex(e, side)});
     }
   return m;
 }
@@ -63,8 +52,8 @@ TexturedMesh ring_strip() {
     const int n = (s + 1) % 4;
     const int a = s, b = n, c = n + 4, e = s + 4;
     const Vec2 ta(8 + 12 * s, 8), tb(8 + 12 * (s + 1), 8), tc(8 + 12 * (s + 1), 20), te(8 + 12 * s, 20);
-    add_face(m, {a, b, c}, {ta, tb, tc});
-    add_face(m, {a, c, e}, {ta, tc, te});
+    add_texel_face(m, {a, b, c}, {ta, tb, tc});
+    add_texel_face(m, {a, c, e}, {ta, tc, te});
   }
   return m;
 }
@@ -166,7 +155,7 @@ TexturedMesh overfull_fan() {
   };
   for (int i = 0; i < 5; ++i) {
     const double base = i < 3 ? 80.0 * i : 80.0 * i + 100.0;
-    add_face(m, {0, i + 1, i + 2}, {Vec2(32, 32), ring(base), ring(base + 80)});
+    add_texel_face(m, {0, i + 1, i + 2}, {Vec2(32, 32), ring(base), ring(base + 80)});
   }
   return m;
 }
@@ -236,18 +225,18 @@ TexturedMesh overfull_seam_end() {
     m.positions.push_back(p);
   auto t = [](double x, double y) { return Vec2(32 + 8 * x, 32 + 8 * y); };
   const Vec2 v = t(0, 0), s1 = t(1, 0), s0 = t(2, 0), a1 = t(1, 1), a2 = t(2, 1), a0 = t(-0.983, -0.688);
-  add_face(m, {0, 1, 3}, {v, s1, a1});
-  add_face(m, {1, 2, 4}, {s1, s0, a2});
-  add_face(m, {1, 4, 3}, {s1, a2, a1});
-  add_face(m, {0, 3, 5}, {v, a1, a0});
+  add_texel_face(m, {0, 1, 3}, {v, s1, a1});
+  add_texel_face(m, {1, 2, 4}, {s1, s0, a2});
+  add_texel_face(m, {1, 4, 3}, {s1, a2, a1});
+  add_texel_face(m, {0, 3, 5}, {v, a1, a0});
   // B lies 2.2 lower on the page than the seam it shares with A (a chart of its own, not joined).
   auto tb = [&](double x, double y) { return t(x + 0.25, y - 2.2); };
   const Vec2 vb = tb(0.826, -0.985), b1 = tb(1.6, -1.039), b2 = tb(2.039, -0.6), b0 = tb(-0.253, -1.511),
              s1b = tb(1, 0), s0b = tb(2, 0);
-  add_face(m, {0, 6, 1}, {vb, b1, s1b});
-  add_face(m, {0, 8, 6}, {vb, b0, b1});
-  add_face(m, {1, 6, 7}, {s1b, b1, b2});
-  add_face(m, {1, 7, 2}, {s1b, b2, s0b});
+  add_texel_face(m, {0, 6, 1}, {vb, b1, s1b});
+  add_texel_face(m, {0, 8, 6}, {vb, b0, b1});
+  add_texel_face(m, {1, 6, 7}, {s1b, b1, b2});
+  add_texel_face(m, {1, 7, 2}, {s1b, b2, s0b});
   return m;
 }
 

@@ -61,19 +61,7 @@ TEST(MergeEngineHoles, EarClipRefusesABowTieAndAFlatPolygon) {
   EXPECT_FALSE(ear_clip({{0, 0}, {1, 0}}, tris));                  // two corners
 }
 
-/// Adds face (a, b, c) on page 0 with texels ta, tb, tc (a texcoord per corner: every face its own
-/// wedges until the charts are built, which weld equal texcoords of a vertex).
-void add_face(TexturedMesh& m, std::array<int, 3> v, std::array<Vec2, 3> t) {
-  Face f;
-  f.page = 0;
-  f.source_line = static_cast<int>(m.faces.size()) + 1;
-  for (size_t k = 0; k < 3; ++k) {
-    f.v[k] = v[k];
-    f.vt[k] = static_cast<int>(m.texcoords.size());
-    m.texcoords.push_back(t[k] / 128.0);
-  }
-  m.faces.push_back(f);
-}
+using test::add_texel_face;
 
 /// A 3 x 3 grid of unit squares in z = 0 without its middle square (vertex (i, j) = 4j + i), laid
 /// out at 16 texels per unit from (16, 16): one chart, a ring with a square hole (corners 5, 6, 10,
@@ -88,8 +76,8 @@ TexturedMesh square_ring(bool tab, double stretch = 1.5) {
     for (int i = 0; i < 3; ++i) {
       if (i == 1 && j == 1) continue;
       const int a = 4 * j + i, b = a + 1, c = a + 5, e = a + 4;
-      add_face(m, {a, b, c}, {t(a), t(b), t(c)});
-      add_face(m, {a, c, e}, {t(a), t(c), t(e)});
+      add_texel_face(m, {a, b, c}, {t(a), t(b), t(c)});
+      add_texel_face(m, {a, c, e}, {t(a), t(c), t(e)});
     }
   if (tab) {
     m.positions.emplace_back(1, -1, 0);
@@ -101,8 +89,8 @@ TexturedMesh square_ring(bool tab, double stretch = 1.5) {
     auto tt = [&](double x, double y) {
       return Vec2(80 + 16 * (c * stretch * x - s * y), 70 + 16 * (s * stretch * x + c * y));
     };
-    add_face(m, {16, 17, 2}, {tt(0, 0), tt(1, 0), tt(1, 1)});
-    add_face(m, {16, 2, 1}, {tt(0, 0), tt(1, 1), tt(0, 1)});
+    add_texel_face(m, {16, 17, 2}, {tt(0, 0), tt(1, 0), tt(1, 1)});
+    add_texel_face(m, {16, 2, 1}, {tt(0, 0), tt(1, 1), tt(0, 1)});
   }
   return m;
 }
@@ -179,7 +167,7 @@ TexturedMesh ring_with_wide_wedge() {
   // Texels of the triangle: 5 at (80, 80), 6 at (96, 80), c where the edge from 6 turns 100 degrees.
   const double t = 100.0 * 3.141592653589793 / 180.0;
   const Vec2 t5(80, 80), t6(96, 80), tc = t6 + 12 * Vec2(-std::cos(t), std::sin(t));
-  add_face(m, {5, 6, 16}, {t5, t6, tc});
+  add_texel_face(m, {5, 6, 16}, {t5, t6, tc});
   return m;
 }
 

@@ -8,6 +8,7 @@
 #include "texdefrag/stage/registry.h"
 #include "texdefrag/testing/fixtures.h"
 
+#include <array>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -24,6 +25,22 @@ inline TexturedMesh one_page_mesh(int side) {
   pg.image_path = "unused.png";
   m.pages.push_back(pg);
   return m;
+}
+
+/// Adds face (a, b, c) on page 0 with texels ta, tb, tc, one texcoord per corner (so every face has
+/// its own wedges until the charts are built, which weld equal texcoords of a vertex); texcoords are
+/// the texels over the page's width (one_page_mesh: square pages).
+inline void add_texel_face(TexturedMesh& m, std::array<int, 3> v, std::array<Vec2, 3> t) {
+  Face f;
+  f.page = 0;
+  f.source_line = static_cast<int>(m.faces.size()) + 1;
+  const double side = m.pages[0].width;
+  for (size_t k = 0; k < 3; ++k) {
+    f.v[k] = v[k];
+    f.vt[k] = static_cast<int>(m.texcoords.size());
+    m.texcoords.push_back(t[k] / side);
+  }
+  m.faces.push_back(f);
 }
 
 /// fragmented_grid_mesh with each triangle's UVs scaled about its first corner by 1 + amp * (+-1)
