@@ -16,7 +16,10 @@ const path = require('path');
 
 const SKIP = 77;
 const CHROMIUM = process.env.TEXDEFRAG_CHROMIUM || '/usr/bin/chromium';
-const FLAGS = ['--headless', '--no-sandbox', '--use-gl=swiftshader', '--enable-unsafe-swiftshader',
+// WebGL on the CPU through ANGLE's SwiftShader. note: not --use-gl=swiftshader: Chromium 156
+// (Debian 12, 2026-11) starts its GPU process with it, then restarts it, and the page's first
+// WebGL context is lost (blank viewports).
+const FLAGS = ['--headless', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
   '--disable-gpu-sandbox', '--no-first-run', '--disable-background-networking', '--disable-component-update',
   '--disable-sync'];
 const MIN_VARIANCE = 25;  // per-channel variance (8-bit levels^2) below which a viewport is blank
@@ -52,6 +55,17 @@ function viewportStats() {
     return { key: cell.key, label: cell.label, too_large: cell.too_large, charts: cell.charts,
       mean: mean, variance: s2 / (3 * n) - mean * mean, diff_to_input: diff / (3 * n) };
   });
+}
+
+// A lost WebGL context draws nothing: wait for the browser to restore it, else say so (a lost
+// context is not a blank model).
+async function waitForContext(page, id) {
+  try {
+    await page.waitForFunction(function () { return !window.TD.state.contextLost; }, null, { timeout: 30000 });
+  } catch (e) {
+    throw new Error(id + ': the WebGL context was lost and not restored within 30 s (Chromium ' + CHROMIUM +
+      ', flags ' + FLAGS.join(' ') + ')');
+  }
 }
 
 async function main() {
@@ -102,6 +116,7 @@ async function main() {
           return Object.values(v.textures).every(function (t) { return t.image && t.image.complete && t.image.naturalWidth > 0; });
         });
       }, null, { timeout: 120000 });
+      await waitForContext(page, id);
       await page.evaluate(function () { window.TD.render(); });
       const textured = await page.evaluate(viewportStats);
       const canvas = await page.$('#viewer-canvas');

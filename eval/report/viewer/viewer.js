@@ -8,7 +8,9 @@
   'use strict';
   const TD = window.TD = window.TD || {};
   const manifest = TD.manifest;
-  const state = { model: null, mode: 'texture', views: {}, loading: 0, errors: [] };
+  // contextLost: the browser took the WebGL context away (GPU process restart, driver reset);
+  // nothing draws until it gives it back, then the viewer renders again by itself.
+  const state = { model: null, mode: 'texture', views: {}, loading: 0, errors: [], contextLost: false };
   TD.state = state;
 
   // Chart and region colours: the same golden-ratio hues as the bench's PNG views.
@@ -104,7 +106,23 @@
     camera.up.set(0, 0, 1);
     controls = new THREE.OrbitControls(camera, canvas);
     controls.addEventListener('change', requestRender);
+    watchContext(canvas);
     window.addEventListener('resize', function () { if (state.model) resize(state.model); });
+  }
+
+  // A lost context is kept restorable (preventDefault) and said on the status line; three.js
+  // re-creates its GPU objects on restore, and the viewer draws the current model again.
+  function watchContext(c) {
+    c.addEventListener('webglcontextlost', function (e) {
+      e.preventDefault();
+      state.contextLost = true;
+      status('WebGL context lost: waiting for the browser to restore it');
+    });
+    c.addEventListener('webglcontextrestored', function () {
+      state.contextLost = false;
+      status('WebGL context restored');
+      requestRender();
+    });
   }
 
   function resize(m) {
