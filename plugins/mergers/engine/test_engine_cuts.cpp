@@ -1,9 +1,7 @@
 // Closing cuts inside one chart (docs/mergers.md, "Closing cuts") on meshes small enough to check by
 // hand: a slit that can close (the chart stays a disk) and a ring of squares cut open once (closing
 // the cut would make a cylinder, which cannot be flattened).
-#include "arap_solver.h"
-#include "engine_internal.h"
-#include "test_support.h"
+#include "test_engine_run.h"
 
 #include "texdefrag/core/distortion.h"
 
@@ -58,21 +56,7 @@ TexturedMesh ring_strip() {
   return m;
 }
 
-struct CutRun {
-  test::Run run;
-  ArapSolver solver;
-  detail::Engine engine;
-  explicit CutRun(TexturedMesh m, const MergeOptions& opt = {})
-      : run(std::move(m)), engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver) {
-    engine.setup();
-  }
-  /// Distinct wedges the faces use.
-  size_t wedges() const {
-    std::set<int> w;
-    for (const auto& fw : run.ctx.atlas.face_wedge) w.insert(fw.begin(), fw.end());
-    return w.size();
-  }
-};
+using CutRun = test::EngineRun;
 
 TEST(MergeEngineCuts, ASlitIsOneChainOfOneEdgeAndClosesIntoADisk) {
   CutRun r(slit_grid(0.25));
@@ -245,10 +229,9 @@ TEST(MergeEngineCuts, APartialWeldLeavesAnOverfullSeamEndCut) {
     MergeOptions opt;
     opt.partial_weld_tries = tries;
     opt.global_bound = 1;  // the whole weld's cost is not the question: its fan is
-    test::Run run(overfull_seam_end());
-    ArapSolver solver{ArapSettings{}};
-    detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver);
-    engine.setup();
+    test::EngineRun er(overfull_seam_end(), opt);
+    detail::Engine& engine = er.engine;
+    test::Run& run = er.run;
     const Atlas& at = run.ctx.atlas;
     ASSERT_EQ(at.num_charts, 2);
     std::string reason;

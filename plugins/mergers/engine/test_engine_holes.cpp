@@ -1,10 +1,8 @@
 // Hole filling (docs/mergers.md, "Hole filling") on meshes small enough to check by hand:
 // ear clipping of small polygons, the hole loop of a square ring of eight squares, merges onto that
 // ring (accepted at once, refused as collapse, refused as fan_overlap at the hole's border).
-#include "arap_solver.h"
-#include "engine_internal.h"
 #include "geometry2d.h"
-#include "test_support.h"
+#include "test_engine_run.h"
 
 #include "texdefrag/core/distortion.h"
 
@@ -96,10 +94,9 @@ TexturedMesh square_ring(bool tab, double stretch = 1.5) {
 }
 
 TEST(MergeEngineHoles, TheRingHasOneHoleLoopOfFourWedgesAgainstItsFaces) {
-  test::Run run(square_ring(false));
-  ArapSolver solver{ArapSettings{}};
-  detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{}, solver);
-  engine.setup();
+  test::EngineRun er(square_ring(false));
+  detail::Engine& engine = er.engine;
+  test::Run& run = er.run;
   const Atlas& at = run.ctx.atlas;
   ASSERT_EQ(at.num_charts, 1);
   detail::Move mv;
@@ -118,10 +115,9 @@ TEST(MergeEngineHoles, AMergeOntoTheRingNeedsNoRetryWhenItsSolveIsAccepted) {
   MergeOptions opt;
   opt.fill_holes = true;
   opt.global_bound = 1;  // the weld's cost is not the question here
-  test::Run run(square_ring(true));
-  ArapSolver solver{ArapSettings{}};
-  detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver);
-  engine.setup();
+  test::EngineRun er(square_ring(true), opt);
+  detail::Engine& engine = er.engine;
+  test::Run& run = er.run;
   const Atlas& at = run.ctx.atlas;
   std::string reason;
   ASSERT_TRUE(engine.try_merge(at.face_chart[0], at.face_chart[16], reason)) << reason;
@@ -140,10 +136,9 @@ TEST(MergeEngineHoles, ACollapseRefusalIsNotTriedAgain) {
   opt.fill_holes = true;
   opt.global_bound = 1;
   opt.min_singular_value = 0.95;
-  test::Run run(square_ring(true, 2.5));
-  ArapSolver solver{ArapSettings{}};
-  detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver);
-  engine.setup();
+  test::EngineRun er(square_ring(true, 2.5), opt);
+  detail::Engine& engine = er.engine;
+  test::Run& run = er.run;
   const Atlas& at = run.ctx.atlas;
   const Atlas before = at;
   std::string reason;
@@ -176,10 +171,9 @@ TEST(MergeEngineHoles, AFanOverlapAtAHoleIsTriedAgainAndRefusedWhenTheHoleCannot
     MergeOptions opt;
     opt.fill_holes = fill;
     opt.global_bound = 1;
-    test::Run run(ring_with_wide_wedge());
-    ArapSolver solver{ArapSettings{}};
-    detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver);
-    engine.setup();
+    test::EngineRun er(ring_with_wide_wedge(), opt);
+    detail::Engine& engine = er.engine;
+    test::Run& run = er.run;
     const Atlas& at = run.ctx.atlas;
     ASSERT_EQ(at.num_charts, 2);
     const Atlas before = at;
@@ -199,10 +193,9 @@ TEST(MergeEngineHoles, AFanOverlapAtAHoleIsTriedAgainAndRefusedWhenTheHoleCannot
 /// add_hole_faces on the ring alone with its hole's four wedges free: two triangles across the
 /// 16 x 16-texel hole, each at rest as it is (deformation gradient the identity), weight its area 128.
 TEST(MergeEngineHoles, TheRingsHoleGetsTwoTrianglesAtRestAsTheyAre) {
-  test::Run run(square_ring(false));
-  ArapSolver solver{ArapSettings{}};
-  detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, MergeOptions{}, solver);
-  engine.setup();
+  test::EngineRun er(square_ring(false));
+  detail::Engine& engine = er.engine;
+  test::Run& run = er.run;
   const Atlas& at = run.ctx.atlas;
   detail::Move mv;
   mv.big = at.face_chart[0];
