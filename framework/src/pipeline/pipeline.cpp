@@ -525,6 +525,23 @@ ResampleOptions resample_options(const Options& t) {
   return ro;
 }
 
+/// The pixels of every input page some face uses (the others stay empty), decoded side by side on
+/// the framework's threads: each page's pixels depend on its file alone, and a failure is the
+/// lowest-numbered failing page's, as when decoded in turn (parallel_for). t016_L19's 24 pages
+/// took 0.17 s in turn, one core idle.
+std::vector<Image> decode_used_pages(const LoadedModel& model) {
+  const TexturedMesh& mesh = model.mesh;
+  std::vector<uint8_t> used(mesh.pages.size(), 0);
+  for (const Face& f : mesh.faces)
+    if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
+  std::vector<size_t> todo;
+  for (size_t p = 0; p < mesh.pages.size(); ++p)
+    if (used[p]) todo.push_back(p);
+  std::vector<Image> pages(mesh.pages.size());
+  parallel_for(todo.size(), [&](size_t k) { pages[todo[k]] = model.page_image(todo[k]); });
+  return pages;
+}
+
 /// Step "texture.resample": decodes the input pages some face uses, returns the output pages of
 /// ctx's atlas and layout.
 std::vector<Image> resample_step(json& report, const PipelineConfig& config, const LoadedModel& model,
@@ -532,12 +549,7 @@ std::vector<Image> resample_step(json& report, const PipelineConfig& config, con
   const TexturedMesh& mesh = model.mesh;
   std::vector<Image> out_pages;
   timed(report, "texture.resample", [&](json& node) {
-    std::vector<Image> in_pages(mesh.pages.size());
-    std::vector<uint8_t> used(mesh.pages.size(), 0);
-    for (const Face& f : mesh.faces)
-      if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
-    for (size_t p = 0; p < mesh.pages.size(); ++p)
-      if (used[p]) in_pages[p] = model.page_image(p);
+    const std::vector<Image> in_pages = decode_used_pages(model);
     const ResampleOptions ro = resample_options(config.texture);
     ResampleStats rs;
     out_pages = resample_atlas(mesh, in_pages, ctx.atlas, ctx.layout, ro, &rs, progress);
