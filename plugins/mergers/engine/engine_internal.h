@@ -550,10 +550,12 @@ class Engine {
     bool in_atlas = false;  ///< it passed: its move is in the atlas until settled or dropped
   };
   /// What try_merge(e.a, e.b, reason, L) does, for an entry drain popped: with speculation on (the
-  /// second pass, spec_width_ > 1), a live speculation of e is settled, else e is evaluated in a batch
+  /// second pass or the first pass's only lane, spec_width_ > 1), a live speculation of e is settled, else e is evaluated in a batch
   /// with up to spec_width_ - 1 entries further down the queue (speculations), side by side.
   /// `log`: the lane whose rollback log holds the move (for mark_shapes).
   bool merge_entry(const Entry& e, std::string& reason, Lane& L, const Lane*& log);
+  /// Speculation starts on a lane that drains alone and checks the global budget: the main lane in
+  /// the second pass, or the first pass's only lane (solo_lane_); other lanes never speculate.
   void start_speculation(Lane& L);
   void stop_speculation(Lane& L);
   /// Evaluates the batch's entries side by side, each on its slot's lane (batch[0]: the entry drain
@@ -584,7 +586,11 @@ class Engine {
   std::vector<std::unique_ptr<Speculation>> spec_;  ///< slots (live or free)
 
   int spec_width_ = 1;       ///< entries evaluated per batch
-  bool speculating_ = false; ///< drain runs the main lane with speculation
+  bool speculating_ = false; ///< drain runs spec_lane_ with speculation
+  Lane* spec_lane_ = nullptr;  ///< the lane speculating (while speculating_): main_, or the first pass's only lane
+  /// The first pass's only lane while it drains (it checks the global budget, like the main lane):
+  /// it may speculate (start_speculation).
+  const Lane* solo_lane_ = nullptr;
   int stamp_high_ = 0;       ///< the highest epoch or seen stamp any lane used so far
   /// Fills rep_.seam_left: the seams still cut when the engine stops, by why they are (docs/mergers.md
   /// step 9): each adjacent chart pair's 3D seam length under its last refusal reason.

@@ -653,6 +653,11 @@ MergeReport Engine::run(const Progress& progress) {
   refreshed_area_.resize(charts_.size());
   for (size_t c = 0; c < charts_.size(); ++c) refreshed_area_[c] = charts_[c].uv_area;
   const bool second = opt_.second_pass == SecondPass::AcrossRegions;
+  // Two entries per thread: move costs are uneven (a few large free regions), so a thread that
+  // finishes a short move takes the next one of the batch (t016_L19, 2 threads: 22% of the pass's
+  // CPU beside its longest moves with batches of 2, 33% with 4 and 8).
+  const int threads = thread_count();
+  spec_width_ = opt_.second_pass_batch > 0 ? opt_.second_pass_batch : threads > 1 ? 2 * threads : 1;
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   first_pass(progress, second ? 0.6 : 1.0);
@@ -666,18 +671,14 @@ MergeReport Engine::run(const Progress& progress) {
     const auto t1 = Clock::now();
     const double c1 = process_cpu_seconds();
     main_.max_merges = opt_.max_merges;
-    // Two entries per thread: move costs are uneven (a few large free regions), so a thread that
-    // finishes a short move takes the next one of the batch (t016_L19, 2 threads: 22% of the pass's
-    // CPU beside its longest moves with batches of 2, 33% with 4 and 8).
-    const int threads = thread_count();
-    spec_width_ = opt_.second_pass_batch > 0 ? opt_.second_pass_batch : threads > 1 ? 2 * threads : 1;
-    const size_t before = main_.rep.accepted;
+    const size_t before = main_.rep.accepted, attempted_before = main_.rep.attempted;
     const int steps = std::max(1, opt_.second_pass_steps);
     for (int i = 0; i < steps; ++i) {
       start_second_pass(opt_.second_pass_local_bound / std::pow(2.0, steps - 1 - i));
       drain(main_, progress, 0.6 + 0.4 * i / steps, 0.4 / steps);
     }
     rep_.accepted_second_pass = main_.rep.accepted - before;
+    rep_.attempted_second_pass = main_.rep.attempted - attempted_before;
     rep_.second_pass_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
     rep_.second_pass_cpu_seconds = process_cpu_seconds() - c1;
   }
@@ -710,7 +711,11 @@ void Engine::first_pass(const Progress& progress, double span) {
   const bool optimistic = lanes.size() > 1 && !budget_shares_;
   Atlas before;
   if (optimistic) before = at_;
+  // note: one lane holding every candidate pair (the unconstrained trial's: no regions) drains alone on
+  // this thread with the global check, as the second pass's main lane does: it speculates likewise.
+  if (opt_.first_pass_speculation && lanes.size() == 1 && lanes[0].global_check) solo_lane_ = &lanes[0];
   run_lanes(lanes, progress, span);
+  solo_lane_ = nullptr;
   join_lanes(lanes);
   if (optimistic && global_distortion() > opt_.global_bound) {
     at_ = std::move(before);

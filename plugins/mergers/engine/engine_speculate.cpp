@@ -1,6 +1,8 @@
 // The second pass side by side (docs/mergers.md, "Parallel second pass"). The second pass is one
 // queue across regions, so its order is the serial one; what runs side by side is the evaluation of
-// moves (align, weld, free region, ARAP solve, checks: the expensive part), by speculation:
+// moves (align, weld, free region, ARAP solve, checks: the expensive part), by speculation. A first
+// pass whose candidate pairs all lie in one lane (the unconstrained trial's, which has no regions) is
+// one queue with the global check too, and speculates the same way on that lane:
 // - when drain pops an entry e to merge and no speculation of it stands, e is evaluated in a batch
 //   with up to spec_width_ - 1 entries further down the queue (the look-ahead) whose charts are
 //   neither e's nor a standing speculation's nor a neighbour of theirs; each on a lane of its own, all
@@ -153,11 +155,12 @@ class Engine::BatchPool {
 void Engine::DeletePool::operator()(BatchPool* p) const { delete p; }
 
 void Engine::start_speculation(Lane& L) {
-  // note: only the main lane speculates. The first pass's region lanes drain side by side, so they
-  // must not write the engine's shared members (speculating_ is false and stamp_high_ unused there;
-  // the second pass starts from the main lane's stamps, the highest of every lane's, join_lanes).
-  if (&L != &main_) return;
-  speculating_ = across_ && spec_width_ > 1 && solver_.reentrant();
+  // note: only a lane draining alone speculates. The first pass's region lanes drain side by side, so
+  // they must not write the engine's shared members (speculating_ is false and stamp_high_ unused
+  // there; the second pass starts from the main lane's stamps, the highest of every lane's, join_lanes).
+  if (across_ ? &L != &main_ : &L != solo_lane_) return;
+  speculating_ = spec_width_ > 1 && solver_.reentrant();
+  spec_lane_ = &L;
   stamp_high_ = std::max({stamp_high_, L.epoch, L.seen_stamp});
   if (speculating_) pool_.reset(new BatchPool(std::min(thread_count(), spec_width_) - 1));
 }
@@ -167,6 +170,7 @@ void Engine::stop_speculation(Lane& L) {
   for (auto& s : spec_)
     if (s->live) drop(*s);
   speculating_ = false;
+  spec_lane_ = nullptr;
   pool_.reset();
   // The lane's next stamps must be above every stamp the speculations' lanes left.
   L.epoch = L.seen_stamp = std::max({stamp_high_, L.epoch, L.seen_stamp});
@@ -195,7 +199,7 @@ bool Engine::merge_entry(const Entry& e, std::string& reason, Lane& L, const Lan
         drop(*s);  // evaluated afresh below, with the repair
         break;
       }
-      ++rep_.second_pass_speculation_used;
+      ++(across_ ? rep_.second_pass_speculation_used : rep_.first_pass_speculation_used);
       log = &s->lane;
       return settle(*s, reason, L);
     }
@@ -235,7 +239,8 @@ void Engine::pick_lookahead(const Entry& e, std::vector<Speculation*>& batch) {
   // Best first over the heap (the children of entry i are 2i + 1 and 2i + 2): the order the pops
   // would take, up to ties and to what the coming merges re-queue. Only a guess: a speculation is
   // used only when drain pops its entry.
-  const std::vector<Entry>& heap = main_.queue.entries();
+  const Lane& L = *spec_lane_;
+  const std::vector<Entry>& heap = L.queue.entries();
   std::vector<const Entry*> found;
   std::priority_queue<std::pair<double, size_t>> front;
   if (!heap.empty()) front.emplace(heap[0].score, 0);
@@ -249,8 +254,8 @@ void Engine::pick_lookahead(const Entry& e, std::vector<Speculation*>& batch) {
     const ChartInfo& A = charts_[static_cast<size_t>(x.a)];
     const ChartInfo& B = charts_[static_cast<size_t>(x.b)];
     if (!A.alive || !B.alive || A.version != x.va || B.version != x.vb) continue;  // stale
-    const auto ps = main_.pairs.find(Lane::pair_key(x.a, x.b));
-    if (ps == main_.pairs.end() || ps->second.attempts >= opt_.max_attempts) continue;
+    const auto ps = L.pairs.find(Lane::pair_key(x.a, x.b));
+    if (ps == L.pairs.end() || ps->second.attempts >= opt_.max_attempts) continue;
     found.push_back(&x);
   }
   // Charts disjoint from the busy ones (required). Entries whose charts are not neighbours of them
@@ -299,7 +304,9 @@ void Engine::run_batch(std::vector<Speculation*>& batch) {
     // repaired move then); a solve it would refuse is cheaper without the repair (its untangle is most
     // of a large move's cost), and the few whose entry comes when the budget is no longer spent are
     // evaluated again (repair_skipped_wrongly). batch[0] is settled at once: its answer is exact.
-    l.repair_off = repair_spent(main_);
+    l.repair_off = repair_spent(*spec_lane_);
+    // A region's lane refuses repaired moves above repaired_local_bound (check_distortion).
+    l.region = spec_lane_->region;
     // Stamps above every earlier one; lanes of one batch share values but touch disjoint charts.
     l.epoch = l.seen_stamp = stamp_high_;
     s->reason.clear();
@@ -320,9 +327,9 @@ void Engine::run_batch(std::vector<Speculation*>& batch) {
     longest = std::max(longest, c);
   }
   const double threads = static_cast<double>(std::min<size_t>(batch.size(), static_cast<size_t>(thread_count())));
-  rep_.second_pass_side_cpu_seconds += sum - std::max(longest, sum / threads);
+  if (across_) rep_.second_pass_side_cpu_seconds += sum - std::max(longest, sum / threads);
   for (const Speculation* s : batch) stamp_high_ = std::max({stamp_high_, s->lane.epoch, s->lane.seen_stamp});
-  rep_.second_pass_speculated += batch.size() - 1;
+  (across_ ? rep_.second_pass_speculated : rep_.first_pass_speculated) += batch.size() - 1;
 }
 
 bool Engine::settle(Speculation& s, std::string& reason, Lane& L) {

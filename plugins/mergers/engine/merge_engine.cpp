@@ -188,6 +188,7 @@ json MergeReport::to_json() const {
   j["merges_accepted"] = accepted;
   j["charts_after_first_pass"] = charts_after_first_pass;
   j["merges_accepted_second_pass"] = accepted_second_pass;
+  j["merges_attempted_second_pass"] = attempted_second_pass;
   j["merges_mirrored"] = accepted_mirrored;
   j["mirrored_faces_out"] = mirrored_faces_out;
   j["distortion_after_first_pass"] = distortion_after_first_pass;
@@ -196,6 +197,8 @@ json MergeReport::to_json() const {
   j["first_pass_seconds"] = first_pass_seconds;
   j["second_pass_seconds"] = second_pass_seconds;
   j["close_cuts_seconds"] = close_cuts_seconds;
+  j["first_pass_speculated"] = first_pass_speculated;
+  j["first_pass_speculation_used"] = first_pass_speculation_used;
   j["second_pass_speculated"] = second_pass_speculated;
   j["second_pass_speculation_used"] = second_pass_speculation_used;
   j["seam_figures_kept"] = seam_figures_kept;
@@ -279,9 +282,13 @@ class Trial {
   MergeReport finish(Atlas& atlas, const Progress& progress);
 
  private:
-  MergeReport run(Atlas& atlas, const Progress& progress, const std::atomic<bool>* cancel) const {
+  /// @param beside  the trial runs beside the run with regions: its one queue does not speculate
+  ///                (the other threads are that run's); alone, it does (the same atlas either way).
+  MergeReport run(Atlas& atlas, const Progress& progress, const std::atomic<bool>* cancel, bool beside) const {
     const std::vector<int> no_regions;  // (the engine keeps a reference)
-    detail::Engine e(mesh_, topo_, atlas, no_regions, opt_, solver_);
+    MergeOptions opt = opt_;
+    opt.first_pass_speculation = !beside;
+    detail::Engine e(mesh_, topo_, atlas, no_regions, opt, solver_);
     e.input_charts_from(charts_);
     e.cancel_when(cancel);
     return e.run(progress);
@@ -309,7 +316,7 @@ class Trial {
 void Trial::run_beside() {
   try {
     beside_atlas_ = input_;
-    beside_ = run(beside_atlas_, [this](double f) { fraction_ = f; }, &drop_);
+    beside_ = run(beside_atlas_, [this](double f) { fraction_ = f; }, &drop_, true);
   } catch (const detail::Engine::Cancelled&) {
     beside_atlas_ = Atlas();
   } catch (...) {
@@ -337,7 +344,7 @@ MergeReport Trial::finish(Atlas& atlas, const Progress& progress) {
     return *beside_;
   }
   atlas = std::move(input_);
-  return run(atlas, progress, nullptr);
+  return run(atlas, progress, nullptr, false);
 }
 
 /// The input's charts (the closing distortion summary's flip groups), the same for every engine of

@@ -91,10 +91,17 @@ struct MergeOptions {
   /// A move refused as fan_overlap whose local problem touches a hole of the merged chart is tried
   /// again with temporary triangles across its holes (docs/mergers.md, "Hole filling").
   bool fill_holes = false;
-  /// Queue entries the second pass evaluates side by side (docs/mergers.md, "Parallel second pass"):
+  /// Queue entries the second pass (and a speculating first pass, below) evaluates side by side
+  /// (docs/mergers.md, "Parallel second pass"):
   /// 0 = twice thread_count() (1 with one thread), 1 = one at a time. Not a stage option (the result is the same for any
   /// value); tests set it to run the speculation on one thread.
   int second_pass_batch = 0;
+  /// A first pass whose candidate pairs all lie in one lane (no regions) speculates as the second
+  /// pass does. Not a stage option (same result either way): set by the unconstrained trial when it
+  /// runs alone after the run with regions (models above unconstrained_trial_beside_max_faces), where
+  /// its moves are many; off elsewhere, since handing 0.1-0.2 ms moves between two busy cores cost
+  /// more than it saved (mmethod.json on t016_L18: merger wall 0.60 -> 0.65 s, CPU +35%).
+  bool first_pass_speculation = false;
   /// Tests: every time score() re-uses a seam's kept figures (PairState::seam_err), compute them
   /// again and throw std::logic_error when they differ.
   bool check_kept_seams = false;
@@ -116,6 +123,7 @@ struct MergeReport {
   size_t attempted = 0, accepted = 0;
   size_t charts_after_first_pass = 0;  ///< live charts when the region-constrained queue emptied
   size_t accepted_second_pass = 0;     ///< merges accepted by the cross-region pass
+  size_t attempted_second_pass = 0;    ///< merges attempted by the cross-region pass (solved or refused before)
   size_t accepted_mirrored = 0;        ///< accepted merges that reflected the smaller chart
   size_t mirrored_faces_out = 0;       ///< faces laid out as a mirror image of their input UV triangle
   double distortion_after_first_pass = 0;  ///< global ARAP distortion at that moment
@@ -133,6 +141,9 @@ struct MergeReport {
   double first_pass_seconds = 0;   ///< wall time of the first pass (its lanes run side by side)
   double second_pass_seconds = 0;  ///< wall time of the second pass (one queue)
   double close_cuts_seconds = 0;   ///< wall time of closing cuts (close_cuts)
+  /// First-pass moves evaluated ahead of their turn, side by side (only when one lane holds every
+  /// candidate pair, e.g. the unconstrained trial's first pass), and of them those used.
+  size_t first_pass_speculated = 0, first_pass_speculation_used = 0;
   size_t second_pass_speculated = 0;  ///< second-pass moves evaluated ahead of their turn, side by side
   size_t second_pass_speculation_used = 0;  ///< of them, used when their turn came (the rest were dropped)
   /// CPU time of the second pass (every thread), and of it the CPU time of moves evaluated beside

@@ -485,6 +485,52 @@ TEST(MergeEngine, SpeculativeSecondPassGivesTheSerialAtlas) {
   }
 }
 
+TEST(MergeEngine, SpeculativeFirstPassWithoutRegionsGivesTheSerialAtlas) {
+  // Without regions the first pass is one queue with the global check; with first_pass_speculation
+  // it evaluates entries ahead of their turn side by side as the second pass does (the unconstrained
+  // trial run alone). The atlas must be the serial one bit for bit: batches of 1, 2 and 4 on 1 and 4
+  // threads, with a budget the pass does not reach and one it spends (global_distortion refusals).
+  // note: 80 x 16 squares, not the second pass test's 20 x 16: on the smaller grid the look-ahead's
+  // guesses are almost never the entries the queue pops next (1 of 163 used).
+  for (double bound : {0.025, 0.006}) {
+    std::vector<Atlas> out;
+    std::vector<MergeReport> reps;
+    const std::vector<std::pair<int, int>> runs{{1, 1}, {1, 2}, {1, 4}, {4, 2}, {4, 4}};  // threads, batch
+    for (const auto& [threads, batch] : runs) {
+      set_thread_count(threads);
+      test::Run run(test::distorted_fragmented_grid(80, 16, 0.08));
+      MergeOptions o;
+      o.priority = Priority::MMethod;
+      o.global_bound = bound;
+      o.first_pass_speculation = batch > 1;
+      o.second_pass_batch = batch;
+      ArapSolver solver;
+      reps.push_back(run_merges(run.mesh, run.topo, run.ctx.atlas, {}, o, solver, {}));
+      out.push_back(run.ctx.atlas);
+      test::expect_valid_atlas(run);
+    }
+    set_thread_count(0);
+    const std::string what = "bound " + std::to_string(bound);
+    EXPECT_GT(reps[0].accepted, 100u) << what;
+    EXPECT_EQ(reps[0].first_pass_speculated, 0u) << what;
+    if (bound < 0.01) {
+      EXPECT_GT(reps[0].rejected["global_distortion"], 0u) << what;
+    }
+    for (size_t i = 1; i < runs.size(); ++i) {
+      const std::string run = what + ", threads " + std::to_string(runs[i].first) + " batch " + std::to_string(runs[i].second);
+      EXPECT_GT(reps[i].first_pass_speculation_used, 50u) << run;
+      EXPECT_EQ(reps[i].accepted, reps[0].accepted) << run;
+      EXPECT_EQ(reps[i].attempted, reps[0].attempted) << run;
+      EXPECT_EQ(reps[i].rejected, reps[0].rejected) << run;
+      EXPECT_EQ(out[i].face_chart, out[0].face_chart) << run;
+      EXPECT_EQ(out[i].face_wedge, out[0].face_wedge) << run;
+      ASSERT_EQ(out[i].wedge_uv.size(), out[0].wedge_uv.size()) << run;
+      for (size_t w = 0; w < out[0].wedge_uv.size(); ++w)
+        ASSERT_TRUE(out[i].wedge_uv[w] == out[0].wedge_uv[w]) << "wedge " << w << ", " << run;
+    }
+  }
+}
+
 /// ARAP, except that every problem with a number of triangles divisible by 3 "needs the repair": it
 /// is refused (inverted) when the caller cannot use a repair, else returned as repaired. Counts the
 /// repairs it ran (any thread).
