@@ -1558,21 +1558,22 @@ std::vector<char> check_faces(const TexturedMesh& mesh, const Atlas& atlas, cons
     const Face& F = mesh.faces[f];
     const int chart = atlas.face_chart[f];
     if (F.page == kNoPage && chart < 0) continue;
-    const std::string where = "face " + std::to_string(f) + " (OBJ line " + std::to_string(F.source_line) + ")";
-    if (F.page == kNoPage || chart < 0) fail(where + ": textured in only one of mesh and atlas");
-    if (F.page < 0 || static_cast<size_t>(F.page) >= mesh.pages.size()) fail(where + ": page " + std::to_string(F.page) + " out of range");
+    // note: the face's name is built only for a message (once per face, it cost an allocation each).
+    const auto where = [&] { return "face " + std::to_string(f) + " (OBJ line " + std::to_string(F.source_line) + ")"; };
+    if (F.page == kNoPage || chart < 0) fail(where() + ": textured in only one of mesh and atlas");
+    if (F.page < 0 || static_cast<size_t>(F.page) >= mesh.pages.size()) fail(where() + ": page " + std::to_string(F.page) + " out of range");
     if (static_cast<size_t>(chart) >= layout.chart_page.size())
-      fail(where + ": chart " + std::to_string(chart) + " has no output page in the layout");
+      fail(where() + ": chart " + std::to_string(chart) + " has no output page in the layout");
     const int op = layout.chart_page[static_cast<size_t>(chart)];
     if (op < 0 || static_cast<size_t>(op) >= layout.pages.size())
       fail("chart " + std::to_string(chart) + ": output page " + std::to_string(op) + " out of range");
     for (int k = 0; k < 3; ++k) {
       const int w = atlas.face_wedge[f][static_cast<size_t>(k)];
-      if (w < 0 || static_cast<size_t>(w) >= layout.wedge_uv.size()) fail(where + ": wedge " + std::to_string(w) + " out of range");
-      if (!sane(layout.wedge_uv[static_cast<size_t>(w)])) fail(where + ": output UV is not finite or beyond 1e9 texels");
+      if (w < 0 || static_cast<size_t>(w) >= layout.wedge_uv.size()) fail(where() + ": wedge " + std::to_string(w) + " out of range");
+      if (!sane(layout.wedge_uv[static_cast<size_t>(w)])) fail(where() + ": output UV is not finite or beyond 1e9 texels");
       const int vt = F.vt[static_cast<size_t>(k)];
-      if (vt < 0 || static_cast<size_t>(vt) >= mesh.texcoords.size()) fail(where + ": texcoord index out of range");
-      if (!sane(mesh.corner_texel(f, k))) fail(where + ": input UV is not finite or beyond 1e9 texels");
+      if (vt < 0 || static_cast<size_t>(vt) >= mesh.texcoords.size()) fail(where() + ": texcoord index out of range");
+      if (!sane(mesh.corner_texel(f, k))) fail(where() + ": input UV is not finite or beyond 1e9 texels");
     }
     page_used[static_cast<size_t>(F.page)] = 1;
   }
@@ -1648,7 +1649,11 @@ std::vector<Image> blank_pages(const Layout& layout, int channels, const uint8_t
     if (channels == 1) bg[0] = b[0];
     else if (channels == 2) { bg[0] = b[0]; bg[1] = b[3]; }
     else std::memcpy(bg, b, static_cast<size_t>(channels));
-    for (size_t t = 0; t < n; ++t) std::memcpy(&im.pixels[t * static_cast<size_t>(channels)], bg, static_cast<size_t>(channels));
+    // One row texel by texel, then every other row copied from it.
+    const size_t row = static_cast<size_t>(im.width) * static_cast<size_t>(channels);
+    for (size_t t = 0; t < static_cast<size_t>(im.width); ++t)
+      std::memcpy(&im.pixels[t * static_cast<size_t>(channels)], bg, static_cast<size_t>(channels));
+    for (int y = 1; y < im.height; ++y) std::memcpy(&im.pixels[static_cast<size_t>(y) * row], im.pixels.data(), row);
     fill_units += n / kFillTexelsPerUnit;
   }
   return out;
