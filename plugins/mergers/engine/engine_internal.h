@@ -250,6 +250,11 @@ class Engine {
   /// run() throws Cancelled at its next queue entry or set-up step once *flag is true.
   void cancel_when(const std::atomic<bool>* flag) { cancel_ = flag; }
   struct Cancelled {};
+  /// A first pass without regions (one lane with the global check) starts speculating (as with
+  /// MergeOptions::first_pass_speculation) at its next queue entry once *flag is true: the
+  /// unconstrained trial beside the run with regions, when that run has ended and left the other
+  /// threads idle. The atlas is the same whenever it starts.
+  void speculate_when(const std::atomic<bool>* flag) { speculate_when_ = flag; }
 
   // ---- the steps, public for the engine's tests (run() calls setup() first)
   /// Builds rest shapes, charts, seams and grids from the atlas (once, before any move).
@@ -591,6 +596,9 @@ class Engine {
   /// The first pass's only lane while it drains (it checks the global budget, like the main lane):
   /// it may speculate (start_speculation).
   const Lane* solo_lane_ = nullptr;
+  const std::atomic<bool>* speculate_when_ = nullptr;  ///< speculate_when's flag
+  /// The solo lane waits for *speculate_when_ to speculate (drain starts it then).
+  bool speculation_pending_ = false;
   int stamp_high_ = 0;       ///< the highest epoch or seen stamp any lane used so far
   /// Fills rep_.seam_left: the seams still cut when the engine stops, by why they are (docs/mergers.md
   /// step 9): each adjacent chart pair's 3D seam length under its last refusal reason.

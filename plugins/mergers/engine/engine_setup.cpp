@@ -713,7 +713,8 @@ void Engine::first_pass(const Progress& progress, double span) {
   if (optimistic) before = at_;
   // note: one lane holding every candidate pair (the unconstrained trial's: no regions) drains alone on
   // this thread with the global check, as the second pass's main lane does: it speculates likewise.
-  if (opt_.first_pass_speculation && lanes.size() == 1 && lanes[0].global_check) solo_lane_ = &lanes[0];
+  if ((opt_.first_pass_speculation || speculate_when_) && lanes.size() == 1 && lanes[0].global_check)
+    solo_lane_ = &lanes[0];
   run_lanes(lanes, progress, span);
   solo_lane_ = nullptr;
   join_lanes(lanes);
@@ -886,6 +887,7 @@ void Engine::drain(Lane& L, const Progress& progress, double base, double span) 
   size_t popped = 0;
   while (!L.queue.empty() && static_cast<long long>(L.rep.accepted) < L.max_merges) {
     check_cancel();
+    if (speculation_pending_ && speculate_when_->load(std::memory_order_relaxed)) start_speculation(L);
     const Entry e = L.queue.top();
     L.queue.pop();
     if ((++popped & 255) == 0 && progress)

@@ -159,6 +159,9 @@ void Engine::start_speculation(Lane& L) {
   // they must not write the engine's shared members (speculating_ is false and stamp_high_ unused
   // there; the second pass starts from the main lane's stamps, the highest of every lane's, join_lanes).
   if (across_ ? &L != &main_ : &L != solo_lane_) return;
+  // A solo lane without first_pass_speculation waits for speculate_when's flag (drain asks again).
+  speculation_pending_ = !across_ && !opt_.first_pass_speculation && !speculate_when_->load(std::memory_order_relaxed);
+  if (speculation_pending_) return;
   speculating_ = spec_width_ > 1 && solver_.reentrant();
   spec_lane_ = &L;
   stamp_high_ = std::max({stamp_high_, L.epoch, L.seen_stamp});
@@ -166,6 +169,7 @@ void Engine::start_speculation(Lane& L) {
 }
 
 void Engine::stop_speculation(Lane& L) {
+  speculation_pending_ = false;
   if (!speculating_) return;
   for (auto& s : spec_)
     if (s->live) drop(*s);

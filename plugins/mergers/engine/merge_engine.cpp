@@ -272,6 +272,9 @@ class Trial {
   }
   /// The trial will not be needed: a trial running beside stops at its next queue entry.
   void drop() { drop_ = true; }
+  /// The run with regions has ended: a trial running beside may use the other threads now (its
+  /// first pass speculates from its next queue entry on; the same atlas).
+  void alone() { alone_ = true; }
   /// "off" (not started beside), "dropped" (stopped before its end) or "ended"; after finish().
   const char* beside_state() const { return !started_ ? "off" : beside_ ? "ended" : "dropped"; }
   /// Waits for the trial beside to end or stop, reporting its progress meanwhile (none when it
@@ -282,8 +285,8 @@ class Trial {
   MergeReport finish(Atlas& atlas, const Progress& progress);
 
  private:
-  /// @param beside  the trial runs beside the run with regions: its one queue does not speculate
-  ///                (the other threads are that run's); alone, it does (the same atlas either way).
+  /// @param beside  the trial runs beside the run with regions: its one queue speculates only once
+  ///                that run has ended (alone()); run alone, it does from the start (the same atlas).
   MergeReport run(Atlas& atlas, const Progress& progress, const std::atomic<bool>* cancel, bool beside) const {
     const std::vector<int> no_regions;  // (the engine keeps a reference)
     MergeOptions opt = opt_;
@@ -291,6 +294,7 @@ class Trial {
     detail::Engine e(mesh_, topo_, atlas, no_regions, opt, solver_);
     e.input_charts_from(charts_);
     e.cancel_when(cancel);
+    if (beside) e.speculate_when(&alone_);
     return e.run(progress);
   }
   void run_beside();
@@ -304,6 +308,7 @@ class Trial {
   std::thread thread_;
   bool started_ = false;
   std::atomic<bool> drop_{false};
+  std::atomic<bool> alone_{false};  ///< alone(): the run with regions has ended
   std::atomic<double> fraction_{0};  ///< progress of the trial beside
   std::mutex mtx_;
   std::condition_variable ended_;
@@ -389,6 +394,7 @@ MergeReport run_merges(const TexturedMesh& mesh, const Topology& topo, Atlas& at
   if (beside) trial.start_beside();
   MergeReport r = run_with_regions(mesh, topo, atlas, face_region, opt, solver, progress,
                                    beside ? std::function<void()>([&trial] { trial.drop(); }) : nullptr, charts);
+  trial.alone();
   if (!(r.distortion_out < opt.unconstrained_trial_share * opt.global_bound)) {
     trial.drop();
     trial.wait();

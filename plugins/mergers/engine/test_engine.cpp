@@ -531,6 +531,48 @@ TEST(MergeEngine, SpeculativeFirstPassWithoutRegionsGivesTheSerialAtlas) {
   }
 }
 
+TEST(MergeEngine, FirstPassSpeculationStartedByAFlagGivesTheSerialAtlas) {
+  // The unconstrained trial beside the run with regions starts speculating when that run ends
+  // (Engine::speculate_when): whether the flag is set before the run, never, or in the middle of the
+  // first pass (here by the progress callback, called every 256 queue entries), the atlas and the
+  // counters are the serial ones.
+  set_thread_count(2);
+  const std::vector<int> no_regions;
+  struct Out {
+    Atlas atlas;
+    MergeReport rep;
+  };
+  const auto run_with = [&](int mode) {  // 0: flag never set, 1: set before, 2: set at 30% progress
+    test::Run run(test::distorted_fragmented_grid(80, 16, 0.08));
+    MergeOptions o;
+    o.priority = Priority::MMethod;
+    std::atomic<bool> flag{mode == 1};
+    ArapSolver solver;
+    detail::Engine e(run.mesh, run.topo, run.ctx.atlas, no_regions, o, solver);
+    e.speculate_when(&flag);
+    Out out;
+    out.rep = e.run([&](double f) {
+      if (mode == 2 && f > 0.3) flag = true;
+    });
+    out.atlas = run.ctx.atlas;
+    return out;
+  };
+  const Out never = run_with(0), before = run_with(1), during = run_with(2);
+  set_thread_count(0);
+  EXPECT_EQ(never.rep.first_pass_speculated, 0u);
+  EXPECT_GT(before.rep.first_pass_speculation_used, 50u);
+  EXPECT_GT(during.rep.first_pass_speculation_used, 10u);
+  EXPECT_LT(during.rep.first_pass_speculated, before.rep.first_pass_speculated);
+  for (const Out* o : {&before, &during}) {
+    EXPECT_EQ(o->rep.accepted, never.rep.accepted);
+    EXPECT_EQ(o->rep.rejected, never.rep.rejected);
+    EXPECT_EQ(o->atlas.face_chart, never.atlas.face_chart);
+    EXPECT_EQ(o->atlas.face_wedge, never.atlas.face_wedge);
+    ASSERT_EQ(o->atlas.wedge_uv.size(), never.atlas.wedge_uv.size());
+    for (size_t w = 0; w < never.atlas.wedge_uv.size(); ++w) ASSERT_TRUE(o->atlas.wedge_uv[w] == never.atlas.wedge_uv[w]);
+  }
+}
+
 /// ARAP, except that every problem with a number of triangles divisible by 3 "needs the repair": it
 /// is refused (inverted) when the caller cannot use a repair, else returned as repaired. Counts the
 /// repairs it ran (any thread).
