@@ -15,6 +15,8 @@
 // PACKER (e.g. packers.square_tetris:gutter=4,width_trials=8) is run on the cached atlas; one line
 // per packer: model, packer, charts, efficiency, output MP, input MP, wall ms, CPU ms (square_tetris
 // with an outline tail adds: UV area / outline texels, outline / dilated outline, dilated / page).
+// PACK_LAB_PAGES=PREFIX writes each packing's pages as PREFIX_<packer>_<page>.ppm, every chart's
+// faces in a colour of its own (texel centres inside a face), to look at a layout.
 #include "texdefrag/core/charts.h"
 #include "texdefrag/core/topology.h"
 #include "texdefrag/core/uv_overlap.h"
@@ -280,8 +282,57 @@ struct Lab {
   bool overlaps = false;
 };
 
+/// Writes the pages of `layout` as binary PPM images, PREFIX_<page>.ppm: black where no face lies,
+/// each chart's faces (texel centres inside them) in a colour hashed from its id.
+void write_pages(const Atlas& a, const Layout& layout, const std::string& prefix) {
+  for (size_t p = 0; p < layout.pages.size(); ++p) {
+    const int w = layout.pages[p].width, h = layout.pages[p].height;
+    std::vector<unsigned char> img(static_cast<size_t>(w) * static_cast<size_t>(h) * 3, 0);
+    for (size_t f = 0; f < a.face_wedge.size(); ++f) {
+      const int c = a.face_chart[f];
+      if (c < 0 || a.face_wedge[f][0] < 0 || layout.chart_page[static_cast<size_t>(c)] != static_cast<int>(p)) continue;
+      Vec2 v[3];
+      for (int k = 0; k < 3; ++k) v[k] = layout.wedge_uv[static_cast<size_t>(a.face_wedge[f][static_cast<size_t>(k)])];
+      const unsigned hc = static_cast<unsigned>(c) * 2654435761u;
+      const unsigned char col[3] = {static_cast<unsigned char>(64 + (hc >> 8) % 192),
+                                    static_cast<unsigned char>(64 + (hc >> 16) % 192),
+                                    static_cast<unsigned char>(64 + (hc >> 24) % 192)};
+      const double x0 = std::min({v[0].x(), v[1].x(), v[2].x()}), x1 = std::max({v[0].x(), v[1].x(), v[2].x()});
+      const double y0 = std::min({v[0].y(), v[1].y(), v[2].y()}), y1 = std::max({v[0].y(), v[1].y(), v[2].y()});
+      auto edge = [](const Vec2& s, const Vec2& e, double x, double y) {
+        return (e.x() - s.x()) * (y - s.y()) - (e.y() - s.y()) * (x - s.x());
+      };
+      for (int y = std::max(0, static_cast<int>(y0)); y <= std::min(h - 1, static_cast<int>(y1)); ++y)
+        for (int x = std::max(0, static_cast<int>(x0)); x <= std::min(w - 1, static_cast<int>(x1)); ++x) {
+          const double cx = x + 0.5, cy = y + 0.5;
+          const double e0 = edge(v[0], v[1], cx, cy), e1 = edge(v[1], v[2], cx, cy), e2 = edge(v[2], v[0], cx, cy);
+          if (!((e0 >= 0 && e1 >= 0 && e2 >= 0) || (e0 <= 0 && e1 <= 0 && e2 <= 0))) continue;
+          unsigned char* px = &img[(static_cast<size_t>(h - 1 - y) * static_cast<size_t>(w) + static_cast<size_t>(x)) * 3];
+          std::copy(col, col + 3, px);
+        }
+    }
+    for (int c = 0; c < a.num_charts; ++c) {  // each chart's placed box and UV area
+      if (layout.chart_page[static_cast<size_t>(c)] != static_cast<int>(p)) continue;
+      double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300, area = 0;
+      for (size_t f = 0; f < a.face_wedge.size(); ++f) {
+        if (a.face_chart[f] != c || a.face_wedge[f][0] < 0) continue;
+        Vec2 v[3];
+        for (int k = 0; k < 3; ++k) v[k] = layout.wedge_uv[static_cast<size_t>(a.face_wedge[f][static_cast<size_t>(k)])];
+        for (const Vec2& q : v) x0 = std::min(x0, q.x()), x1 = std::max(x1, q.x()), y0 = std::min(y0, q.y()), y1 = std::max(y1, q.y());
+        area += 0.5 * std::abs((v[1] - v[0]).x() * (v[2] - v[0]).y() - (v[1] - v[0]).y() * (v[2] - v[0]).x());
+      }
+      if (area > 0)
+        std::fprintf(stderr, "page %zu chart %d box [%.0f %.0f]x[%.0f %.0f] %.0fx%.0f uv %.0f fill %.2f\n", p, c, x0, x1, y0,
+                     y1, x1 - x0, y1 - y0, area, area / ((x1 - x0) * (y1 - y0)));
+    }
+    std::ofstream out(prefix + "_" + std::to_string(p) + ".ppm", std::ios::binary);
+    out << "P6\n" << w << " " << h << "\n255\n";
+    out.write(reinterpret_cast<const char*>(img.data()), static_cast<std::streamsize>(img.size()));
+  }
+}
+
 /// Packs the merged atlas with one PACKER argument and prints its line (see the top of the file).
-void run_packer(const Lab& lab, const std::string& spec) {
+void run_packer(const Lab& lab, const std::string& spec, int index) {
   const auto [name, o] = parse_packer_spec(spec);
   Registry& reg = Registry::instance();
   const StageInfo* info = reg.find(name);
@@ -307,6 +358,8 @@ void run_packer(const Lab& lab, const std::string& spec) {
               rep.value("packing_efficiency", 0.0), mp, lab.in_mp, ms, cpu_ms);
   if (std::getenv("PACK_LAB_HASH"))
     std::printf("\tlayout %016llx", static_cast<unsigned long long>(layout_hash(pc.layout)));
+  if (const char* prefix = std::getenv("PACK_LAB_PAGES"))
+    write_pages(pc.atlas, pc.layout, std::string(prefix) + "_" + std::to_string(index));
   if (std::getenv("PACK_LAB_CHARTS"))
     std::printf("\texact %d free-rotated %d", rep.value("charts_exact", 0), rep.value("charts_rotated_free", 0));
   // square_tetris: UV area / outline texels / dilated outline texels (where the page goes)
@@ -350,7 +403,7 @@ int main(int argc, char** argv) {
             std::getenv("PACK_LAB_OVERLAPS") != nullptr};
     for (const Page& p : mesh.pages) lab.in_mp += static_cast<double>(p.width) * p.height / 1e6;
     if (lab.overlaps) print_input_overlaps(mesh, charts, ctx.atlas);
-    for (int i = 4; i < argc; ++i) run_packer(lab, argv[i]);
+    for (int i = 4; i < argc; ++i) run_packer(lab, argv[i], i - 3);
   } catch (const std::exception& e) {
     std::cerr << e.what() << "\n";
     return 1;
