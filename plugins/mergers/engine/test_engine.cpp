@@ -405,11 +405,7 @@ TEST(MergeEngine, RegionLanesGiveTheSameAtlasForAnyThreadCount) {
     EXPECT_LE(reps[0].distortion_out, bound * (1 + 1e-9));
     EXPECT_GT(reps[0].accepted, 10u);
     EXPECT_EQ(reps[0].accepted, reps[1].accepted);
-    EXPECT_EQ(out[0].face_chart, out[1].face_chart);
-    EXPECT_EQ(out[0].face_wedge, out[1].face_wedge);
-    ASSERT_EQ(out[0].wedge_uv.size(), out[1].wedge_uv.size());
-    for (size_t w = 0; w < out[0].wedge_uv.size(); ++w)
-      ASSERT_TRUE(out[0].wedge_uv[w] == out[1].wedge_uv[w]) << "wedge " << w << " bound " << bound;
+    test::expect_same_atlas(out[0], out[1], "bound " + std::to_string(bound));
   }
 }
 
@@ -426,6 +422,15 @@ std::vector<int> squares(const TexturedMesh& m, double side) {
   std::map<int, int> ids;
   for (int& x : r) x = ids.emplace(x, static_cast<int>(ids.size())).first->second;
   return r;
+}
+
+/// A run with speculation against the serial one: the same counters and the same atlas bit for bit.
+void expect_same_run(const Atlas& got, const MergeReport& got_rep, const Atlas& want, const MergeReport& want_rep,
+                     const std::string& what) {
+  EXPECT_EQ(got_rep.accepted, want_rep.accepted) << what;
+  EXPECT_EQ(got_rep.attempted, want_rep.attempted) << what;
+  EXPECT_EQ(got_rep.rejected, want_rep.rejected) << what;
+  test::expect_same_atlas(got, want, what);
 }
 
 TEST(MergeEngine, SpeculativeSecondPassGivesTheSerialAtlas) {
@@ -468,14 +473,7 @@ TEST(MergeEngine, SpeculativeSecondPassGivesTheSerialAtlas) {
     for (size_t i = 1; i < runs.size(); ++i) {
       const std::string run = what + ", threads " + std::to_string(runs[i].first) + " batch " + std::to_string(runs[i].second);
       EXPECT_GT(reps[i].second_pass_speculation_used, 10u) << run;
-      EXPECT_EQ(reps[i].accepted, reps[0].accepted) << run;
-      EXPECT_EQ(reps[i].attempted, reps[0].attempted) << run;
-      EXPECT_EQ(reps[i].rejected, reps[0].rejected) << run;
-      EXPECT_EQ(out[i].face_chart, out[0].face_chart) << run;
-      EXPECT_EQ(out[i].face_wedge, out[0].face_wedge) << run;
-      ASSERT_EQ(out[i].wedge_uv.size(), out[0].wedge_uv.size()) << run;
-      for (size_t w = 0; w < out[0].wedge_uv.size(); ++w)
-        ASSERT_TRUE(out[i].wedge_uv[w] == out[0].wedge_uv[w]) << "wedge " << w << ", " << run;
+      expect_same_run(out[i], reps[i], out[0], reps[0], run);
     }
     std::printf("%s: second pass %zu merges, speculated %zu/%zu/%zu/%zu, used %zu/%zu/%zu/%zu, global refusals %zu\n",
                 what.c_str(), reps[0].accepted_second_pass, reps[1].second_pass_speculated, reps[2].second_pass_speculated,
@@ -519,14 +517,7 @@ TEST(MergeEngine, SpeculativeFirstPassWithoutRegionsGivesTheSerialAtlas) {
     for (size_t i = 1; i < runs.size(); ++i) {
       const std::string run = what + ", threads " + std::to_string(runs[i].first) + " batch " + std::to_string(runs[i].second);
       EXPECT_GT(reps[i].first_pass_speculation_used, 50u) << run;
-      EXPECT_EQ(reps[i].accepted, reps[0].accepted) << run;
-      EXPECT_EQ(reps[i].attempted, reps[0].attempted) << run;
-      EXPECT_EQ(reps[i].rejected, reps[0].rejected) << run;
-      EXPECT_EQ(out[i].face_chart, out[0].face_chart) << run;
-      EXPECT_EQ(out[i].face_wedge, out[0].face_wedge) << run;
-      ASSERT_EQ(out[i].wedge_uv.size(), out[0].wedge_uv.size()) << run;
-      for (size_t w = 0; w < out[0].wedge_uv.size(); ++w)
-        ASSERT_TRUE(out[i].wedge_uv[w] == out[0].wedge_uv[w]) << "wedge " << w << ", " << run;
+      expect_same_run(out[i], reps[i], out[0], reps[0], run);
     }
   }
 }
@@ -563,14 +554,8 @@ TEST(MergeEngine, FirstPassSpeculationStartedByAFlagGivesTheSerialAtlas) {
   EXPECT_GT(before.rep.first_pass_speculation_used, 50u);
   EXPECT_GT(during.rep.first_pass_speculation_used, 10u);
   EXPECT_LT(during.rep.first_pass_speculated, before.rep.first_pass_speculated);
-  for (const Out* o : {&before, &during}) {
-    EXPECT_EQ(o->rep.accepted, never.rep.accepted);
-    EXPECT_EQ(o->rep.rejected, never.rep.rejected);
-    EXPECT_EQ(o->atlas.face_chart, never.atlas.face_chart);
-    EXPECT_EQ(o->atlas.face_wedge, never.atlas.face_wedge);
-    ASSERT_EQ(o->atlas.wedge_uv.size(), never.atlas.wedge_uv.size());
-    for (size_t w = 0; w < never.atlas.wedge_uv.size(); ++w) ASSERT_TRUE(o->atlas.wedge_uv[w] == never.atlas.wedge_uv[w]);
-  }
+  expect_same_run(before.atlas, before.rep, never.atlas, never.rep, "flag set before");
+  expect_same_run(during.atlas, during.rep, never.atlas, never.rep, "flag set mid-pass");
 }
 
 /// ARAP, except that every problem with a number of triangles divisible by 3 "needs the repair": it
@@ -634,10 +619,7 @@ TEST(MergeEngine, SpeculationSkipsTheRepairsTheSerialPassSkips) {
     EXPECT_EQ(reps[1].repairs_tried, reps[0].repairs_tried) << what;
     EXPECT_EQ(reps[1].rejected, reps[0].rejected) << what;
     EXPECT_EQ(reps[1].accepted, reps[0].accepted) << what;
-    EXPECT_EQ(out[1].face_chart, out[0].face_chart) << what;
-    ASSERT_EQ(out[1].wedge_uv.size(), out[0].wedge_uv.size()) << what;
-    for (size_t w = 0; w < out[0].wedge_uv.size(); ++w)
-      ASSERT_TRUE(out[1].wedge_uv[w] == out[0].wedge_uv[w]) << "wedge " << w << ", " << what;
+    test::expect_same_atlas(out[1], out[0], what);
     const size_t unused = reps[1].second_pass_speculated - reps[1].second_pass_speculation_used;
     EXPECT_LE(run_repairs[1], run_repairs[0] + unused) << what;
     std::printf("%s: repairs run serial %zu, side by side %zu (speculations unused %zu), flips %zu\n", what.c_str(),
@@ -709,11 +691,7 @@ TEST(MergeEngine, TheTrialBesideGivesTheTrialAfter) {
                 after.unconstrained_trial_kept ? 1 : 0, beside.unconstrained_trial_beside.c_str());
     EXPECT_EQ(beside.accepted, after.accepted) << what;
     EXPECT_EQ(beside.seam_left_length_3d(), after.seam_left_length_3d()) << what;
-    EXPECT_EQ(atlas_beside.face_chart, atlas_after.face_chart) << what;
-    EXPECT_EQ(atlas_beside.face_wedge, atlas_after.face_wedge) << what;
-    ASSERT_EQ(atlas_beside.wedge_uv.size(), atlas_after.wedge_uv.size()) << what;
-    for (size_t w = 0; w < atlas_after.wedge_uv.size(); ++w)
-      ASSERT_TRUE(atlas_beside.wedge_uv[w] == atlas_after.wedge_uv[w]) << "wedge " << w << " " << what;
+    test::expect_same_atlas(atlas_beside, atlas_after, what);
   }
 }
 

@@ -21,7 +21,6 @@ struct EngineRun {
       : run(std::move(m)), engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver) {
     engine.setup();
   }
-  const Atlas& atlas() const { return run.ctx.atlas; }
   /// Distinct wedges the faces use.
   size_t wedges() const {
     std::set<int> w;

@@ -157,4 +157,13 @@ inline void expect_valid_atlas(const Run& run) {
   EXPECT_EQ(d.flipped, 0u);
 }
 
+/// The same atlas bit for bit: charts, wedges per face and every wedge's UV (`what` names the run).
+inline void expect_same_atlas(const Atlas& got, const Atlas& want, const std::string& what) {
+  EXPECT_EQ(got.face_chart, want.face_chart) << what;
+  EXPECT_EQ(got.face_wedge, want.face_wedge) << what;
+  ASSERT_EQ(got.wedge_uv.size(), want.wedge_uv.size()) << what;
+  for (size_t w = 0; w < want.wedge_uv.size(); ++w)
+    ASSERT_TRUE(got.wedge_uv[w] == want.wedge_uv[w]) << "wedge " << w << ", " << what;
+}
+
 }  // namespace texdefrag::merge::test
