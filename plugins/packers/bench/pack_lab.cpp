@@ -15,6 +15,7 @@
 // PACKER (e.g. packers.square_tetris:gutter=4,width_trials=8) is run on the cached atlas; one line
 // per packer: model, packer, charts, efficiency, output MP, input MP, wall ms, CPU ms (square_tetris
 // with an outline tail adds: UV area / outline texels, outline / dilated outline, dilated / page).
+// square_tetris adds its angle search's report (packings, charts turned, MP before, free trial kept).
 // PACK_LAB_PAGES=PREFIX writes each packing's pages as PREFIX_<packer>_<page>.ppm, every chart's
 // faces in a colour of its own (texel centres inside a face), to look at a layout.
 #include "texdefrag/core/charts.h"
@@ -362,6 +363,10 @@ void run_packer(const Lab& lab, const std::string& spec, int index) {
     write_pages(pc.atlas, pc.layout, std::string(prefix) + "_" + std::to_string(index));
   if (std::getenv("PACK_LAB_CHARTS"))
     std::printf("\texact %d free-rotated %d", rep.value("charts_exact", 0), rep.value("charts_rotated_free", 0));
+  if (rep.contains("angle_search_packings"))  // square_tetris's angle search
+    std::printf("\tangles: packings %d turned %d MP before %.3f free_trial %d", rep.value("angle_search_packings", 0),
+                rep.value("angle_search_charts_turned", 0), rep.value("angle_search_megapixels_before", 0.0),
+                rep.value("free_trial_kept", false) ? 1 : 0);
   // square_tetris: UV area / outline texels / dilated outline texels (where the page goes)
   if (rep.contains("outline_texels"))
     std::printf("\tuv/outline %.3f\toutline/padded %.3f\tpadded/page %.3f",

@@ -25,6 +25,7 @@
 #include <array>
 #include <climits>
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <functional>
 #include <limits>
@@ -271,15 +272,21 @@ RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s, const 
   r.outline_cells = std::count(raw.cells.begin(), raw.cells.end(), 1);
   r.cells = std::count(m.cells.begin(), m.cells.end(), 1);
   r.rows.resize(static_cast<size_t>(m.height));
-  for (int y = 0; y < m.height; ++y)
+  // note: runs found with memchr (cells are 0 or 1): the cell-by-cell scan was a third of YCB
+  // banana's packer CPU with the angle search (masks of ~3000^2 cells per candidate).
+  for (int y = 0; y < m.height; ++y) {
+    const uint8_t* row = m.cells.data() + static_cast<size_t>(y) * static_cast<size_t>(m.width);
     for (int x = 0; x < m.width;) {
-      if (!m.at(x, y)) { ++x; continue; }
-      int e = x;
-      while (e < m.width && m.at(e, y)) ++e;
+      const void* one = std::memchr(row + x, 1, static_cast<size_t>(m.width - x));
+      if (!one) break;
+      x = static_cast<int>(static_cast<const uint8_t*>(one) - row);
+      const void* zero = std::memchr(row + x, 0, static_cast<size_t>(m.width - x));
+      const int e = zero ? static_cast<int>(static_cast<const uint8_t*>(zero) - row) : m.width;
       r.rows[static_cast<size_t>(y)].push_back({x, e - x});
       if (e - x > r.wide_len) { r.wide_row = y; r.wide_a = x; r.wide_len = e - x; }
       x = e;
     }
+  }
   for (int y = 0; y < m.height; ++y) {
     int k = 0;
     for (const auto& run : r.rows[static_cast<size_t>(y)]) k = std::max(k, run.second);
@@ -898,8 +905,32 @@ class SquareTetris : public Packer {
     i.options.push_back(opt_double("block_grid_max_cost", 0.0,
                                    "Largest share of extra page area the block-grid packing may cost and still be kept")
                             .range(0, 1));
+    for (OptionSpec& o : angle_options()) i.options.push_back(std::move(o));
     i.create = [] { return std::make_unique<SquareTetris>(); };
     return i;
+  }
+
+  /// The angle search's options (search_angles).
+  static std::vector<OptionSpec> angle_options() {
+    std::vector<OptionSpec> out;
+    // note: default from measurements (docs/packers.md, "Angle search"): the minimum-area angle of
+    // a concave chart (YCB banana's V-shaped peel) is often not the angle that packs best; with at
+    // most 16 charts a whole packing costs milliseconds to ~0.1 s.
+    out.push_back(opt_int("angle_search_max_charts", 16,
+                          "With at most this many charts, the angle of each freely rotated chart (least filled box "
+                          "first) is searched: its minimum-area angle plus j * angle_step_degrees, each a whole "
+                          "packing, keeping a strictly smaller result (in the free trial too; 0: off)")
+                      .range(0, 1000));
+    out.push_back(opt_double("angle_step_degrees", 7.5,
+                             "Step of the angle search: a chart's angles are its minimum-area angle plus j * step for "
+                             "j = 0 .. 90 / step - 1 (quarter turns are tried by every packing)")
+                      .range(0.5, 45)
+                      .unit("deg"));
+    out.push_back(opt_int("angle_search_rounds", 1,
+                          "Rounds of the angle search's coordinate descent over the charts (a round that changes no "
+                          "angle ends it)")
+                      .range(1, 8));
+    return out;
   }
 
   /// What every packing of the charts needs whatever the order of the tail: how many charts are
@@ -946,6 +977,12 @@ class SquareTetris : public Packer {
     return out;
   }
 
+  /// Whether charts c and d have the same base points, triangles and boxes (so the same rasters).
+  static bool same_geometry(const PackChart& c, const PackChart& d) {
+    return c.base == d.base && c.tris == d.tris && std::equal(c.w, c.w + 4, d.w) && std::equal(c.h, c.h + 4, d.h) &&
+           std::equal(c.ox, c.ox + 4, d.ox) && std::equal(c.oy, c.oy + 4, d.oy);
+  }
+
   /// Per chart id: whether reuse's masks serve it in plan_packing (see there; none without reuse).
   static std::vector<uint8_t> mask_donors(const PackInput& in, const std::vector<int>& order, size_t rects,
                                           const PackPlan* reuse, const PackInput* reuse_in) {
@@ -962,9 +999,7 @@ class SquareTetris : public Packer {
     for (size_t n = 0; n < order.size(); ++n) {
       const size_t id = static_cast<size_t>(order[n]);
       const PackChart &c = in.charts[id], &d = reuse_in->charts[id];
-      const bool same = c.base == d.base && c.tris == d.tris && std::equal(c.w, c.w + 4, d.w) &&
-                        std::equal(c.h, c.h + 4, d.h) && std::equal(c.ox, c.ox + 4, d.ox) &&
-                        std::equal(c.oy, c.oy + 4, d.oy) && c.block_aligned == d.block_aligned;
+      const bool same = same_geometry(c, d) && c.block_aligned == d.block_aligned;
       out[id] = out[id] && same && (n < rects) == (was_rect[id] != 0) ? 1 : 0;
     }
     return out;
@@ -1136,6 +1171,7 @@ class SquareTetris : public Packer {
     PackPlan plan;  ///< the plan packed (its masks serve the block-grid trial; cleared after it)
     std::vector<int> planned;  ///< the charts as planned: by area, rectangles first (tail_orders' base)
     size_t tail = 0;           ///< rectangles at the front of the split into rectangles and tail
+    size_t turned = 0;         ///< charts the angle search turned off their minimum-area angle
   };
 
   /// The block-grid trial (option block_grid): the first packing's charts with every exact chart on
@@ -1164,12 +1200,25 @@ class SquareTetris : public Packer {
   /// box corners as rectangles (docs/packers.md).
   /// note: decided side by side, one chart per item (the big charts' rasters: 60 charts with 78% of
   /// the 1M factory's faces), then partitioned in order.
-  size_t split_rectangles(const PackInput& in, const CommonSettings& s, std::vector<int>& order) const {
+  /// reuse, reuse_in: another packing's plan and charts (or null): a chart with the same geometry
+  /// there is split as it was (the angle search turns one chart per packing: the others' rasters
+  /// were 20 ms of each of YCB banana's packings).
+  size_t split_rectangles(const PackInput& in, const CommonSettings& s, std::vector<int>& order,
+                          const PackPlan* reuse = nullptr, const PackInput* reuse_in = nullptr) const {
     const long long tail_side = options().get_int("tail_side");
     const double rect_min_fill = options().get_double("rect_min_fill");
+    std::vector<int8_t> known(in.charts.size(), -1);  // per chart: its split in reuse (1: rectangle), -1: none
+    for (size_t n = 0; reuse && reuse_in && n < reuse->split.size(); ++n) {
+      const size_t id = static_cast<size_t>(reuse->split[n]);
+      if (same_geometry(in.charts[id], reuse_in->charts[id])) known[id] = n < reuse->split_rects ? 1 : 0;
+    }
     std::vector<uint8_t> rect_flag(in.charts.size(), 0);
     parallel_for(order.size(), [&](size_t n) {
       const PackChart& c = in.charts[static_cast<size_t>(order[n])];
+      if (known[static_cast<size_t>(c.id)] >= 0) {
+        rect_flag[static_cast<size_t>(c.id)] = static_cast<uint8_t>(known[static_cast<size_t>(c.id)]);
+        return;
+      }
       bool r = static_cast<long long>(packing::padded_w(c, 0, s)) * packing::padded_h(c, 0, s) >= tail_side * tail_side;
       if (r && rect_min_fill > 0 && tail_side > 0) {
         const packing::Mask m = c.raster(0);
@@ -1188,18 +1237,19 @@ class SquareTetris : public Packer {
   /// changes no size or cell), or null.
   /// reuse_in: when given, reuse's charts, of which only those with the same geometry take its
   /// masks (the free trial's: every chart but the partly exact ones); the split is made again.
+  /// given: the charts already prepared (taken), or null to prepare them from ctx.atlas.
   Packed prepare_packing(const StageContext& ctx, const CommonSettings& s, const PackPlan* reuse,
-                         const PackInput* reuse_in = nullptr) const {
+                         const PackInput* reuse_in = nullptr, PackInput* given = nullptr) const {
     const std::string name = "packers.square_tetris";
     Packed out;
-    out.in = packing::prepare_charts(ctx, s, name);
+    out.in = given ? std::move(*given) : packing::prepare_charts(ctx, s, name);
     const PackInput& in = out.in;
     packing::check_chart_sizes(in, s, name);
     // note: another plan's split serves as it is (the big charts' rasters decide it: 78% of the 1M
     // factory's faces).
     const bool resplit = !reuse || reuse_in || reuse->split.empty();
     std::vector<int> order = resplit ? packing::order_by_area(in, s) : reuse->split;
-    const size_t tail = resplit ? split_rectangles(in, s, order) : reuse->split_rects;
+    const size_t tail = resplit ? split_rectangles(in, s, order, reuse_in ? reuse : nullptr, reuse_in) : reuse->split_rects;
     const std::vector<int> split = order;
     const long long tail_max = options().get_int("tail_max_charts");
     out.tail_charts = order.size() - tail;
@@ -1236,12 +1286,16 @@ class SquareTetris : public Packer {
   /// pages, then the least page area, then the earliest order and width win. Each tail order is a
   /// full packing over every page width (pack_widths). grid: a prepared block-grid trial, packed
   /// beside the last width trials (those of the refinement, or of the last order without one), or
-  /// null.
+  /// null. rival: a packing this one must beat (the angle search's best so far), or null: its width
+  /// trials stop as soon as they cannot beat it, and when no tail order beats it the widths are
+  /// not refined and p.r is marked losing (TrialBound::lose: more pages than the rival). With a
+  /// rival nothing reports progress (the angle search packs its candidates side by side).
   /// note: once a width gives one page, later widths stop as soon as they cannot beat its area
   /// (same result as packing them fully; t016_L19: ~2x faster); later orders stop a width as soon
   /// as it cannot beat the best so far. Page widths come from the area the charts need as placed
   /// (padded boxes of the rectangles, dilated outlines of the tail) as well as from their boxes.
-  void pack_orders(const StageContext& ctx, Packed& p, const CommonSettings& s, GridTrial* grid) const {
+  void pack_orders(const StageContext& ctx, Packed& p, const CommonSettings& s, GridTrial* grid,
+                   const PackResult* rival = nullptr) const {
     const PackInput& in = p.in;
     PackResult& r = p.r;
     const auto orders = tail_orders(in, s, p.planned, p.tail, p.tail_skipped);
@@ -1261,18 +1315,25 @@ class SquareTetris : public Packer {
       const auto& [name, o] = orders[k];
       const bool last = !refining && k + 1 == orders.size();
       int w = 0;
-      PackResult t = packing::pack_widths(in, s, widths, trial(p, s, o, &ctx), &w, best_o ? &r : nullptr, -1,
+      const PackResult* incumbent = best_o ? &r : rival;
+      PackResult t = packing::pack_widths(in, s, widths, trial(p, s, o, rival ? nullptr : &ctx), &w, incumbent, -1,
                                           last ? beside(name, widths) : packing::BesideJob{});
-      if (!best_o || packing::better_result(t, r)) r = std::move(t), p.order = name, best_width = w, best_o = &o;
+      if (!incumbent || packing::better_result(t, *incumbent))
+        r = std::move(t), p.order = name, best_width = w, best_o = &o;
+    }
+    p.orders = orders.size();
+    if (!best_o) {  // every order lost to the rival
+      packing::TrialBound::lose(r, static_cast<size_t>(rival->pages));
+      return;
     }
     const std::vector<int> extra = refine_widths(in, s, widths, best_width, p.tail_charts, p.tail_skipped);
     if (!extra.empty()) {
       int w = 0;
-      PackResult t = packing::pack_widths(in, s, extra, trial(p, s, *best_o, &ctx), &w, &r, -1, beside(p.order, extra));
+      PackResult t = packing::pack_widths(in, s, extra, trial(p, s, *best_o, rival ? nullptr : &ctx), &w, &r, -1,
+                                          beside(p.order, extra));
       if (packing::better_result(t, r)) r = std::move(t), best_width = w, p.refined = true;
     }
     p.width = best_width;
-    p.orders = orders.size();
     p.width_trials = widths.size() * orders.size() + extra.size();
     count_outlines(p);
   }
@@ -1379,6 +1440,132 @@ class SquareTetris : public Packer {
     return partly && charts <= static_cast<size_t>(max_charts);
   }
 
+  /// What the angle search did (report).
+  struct AngleStats {
+    size_t packings = 0;  ///< candidate packings over every search run
+    double before = 0;    ///< texels^2 of page the packer gives without the search
+  };
+
+  /// The charts the angle search turns in p (settings s): every free chart when the search is on
+  /// (angle_search_max_charts > 0), free rotation is on and p has at most angle_search_max_charts
+  /// charts; else none. Exact charts keep quarter turns. Ordered by increasing fill of their box
+  /// (UV area / box area at the minimum-area angle; ties: chart id).
+  /// note: a chart that fills its box is near its best at the minimum-area angle; a concave one is
+  /// where the angle matters, and the coordinate descent's first charts choose from the most
+  /// angles. YCB banana: the V-shaped peel (fill 0.12-0.2) first 8.32 MP, decreasing box area (the
+  /// W-shaped peel first, its angle then fixed for the V's search) 8.91 MP.
+  std::vector<int> angle_search_charts(const Packed& p, const CommonSettings& s) const {
+    const long long max_charts = options().get_int("angle_search_max_charts");
+    std::vector<int> out;
+    const auto charts = std::count_if(p.in.charts.begin(), p.in.charts.end(), [](const PackChart& c) { return !c.faces.empty(); });
+    if (max_charts <= 0 || !s.free_rotation || charts > max_charts) return out;
+    for (const PackChart& c : p.in.charts)
+      if (!c.faces.empty() && !c.exact) out.push_back(c.id);
+    auto fill = [&](int id) {
+      const PackChart& c = p.in.charts[static_cast<size_t>(id)];
+      return c.uv_area / static_cast<double>(c.box_area());
+    };
+    std::stable_sort(out.begin(), out.end(), [&](int a, int b) { return fill(a) < fill(b); });
+    return out;
+  }
+
+  /// p packed again (every tail order and page width, against p's result: pack_orders' rival) with
+  /// free chart `id` turned to `angle` radians; the other charts take p's masks. A losing result
+  /// (more pages than p's) when the turned chart fits no max_page_size page.
+  Packed repack_turned(const StageContext& ctx, const Packed& p, const CommonSettings& s, int id, double angle) const {
+    PackInput in = p.in;
+    PackChart& c = in.charts[static_cast<size_t>(id)];
+    packing::set_free_angle(c, *in.atlas, angle);
+    if (!packing::fits_max_page(c, s)) {
+      Packed lost;
+      packing::TrialBound::lose(lost.r, static_cast<size_t>(p.r.pages));
+      return lost;
+    }
+    Packed t = prepare_packing(ctx, s, &p.plan, &p.in, &in);
+    pack_orders(ctx, t, s, nullptr, &p.r);
+    return t;
+  }
+
+  /// The angle search (options angle_search_*), coordinate descent: each chart of
+  /// angle_search_charts in turn is tried at its minimum-area angle plus j * angle_step_degrees,
+  /// j = 0 .. 90 / step - 1 (quarter turns are tried by every packing), each a whole packing
+  /// (repack_turned) against p, and p takes the smallest (fewest pages, then least page area, then
+  /// the earliest j) when it is strictly smaller than p: the result is never larger. A chart's
+  /// candidates are packed side by side (one per item; each against the same p), so the result does
+  /// not depend on the thread count. st.packings counts the candidates.
+  /// note: the minimum-area angle of a concave chart is often not the one that packs best (YCB
+  /// banana's V-shaped peel: docs/packers.md, "Angle search").
+  void search_angles(const StageContext& ctx, Packed& p, const CommonSettings& s, AngleStats& st) const {
+    const std::vector<int> ids = angle_search_charts(p, s);
+    if (ids.empty()) return;
+    const double step = options().get_double("angle_step_degrees");
+    const int steps = std::max(1, static_cast<int>(std::floor(90.0 / step + 1e-9)));
+    const long long rounds = options().get_int("angle_search_rounds");
+    std::vector<double> start(p.in.charts.size(), 0.0);  // the minimum-area angles
+    for (const PackChart& c : p.in.charts) start[static_cast<size_t>(c.id)] = c.angle;
+    constexpr double kPi = 3.14159265358979323846;
+    for (long long round = 0; round < rounds; ++round) {
+      bool changed = false;
+      for (const int id : ids) {
+        std::vector<double> angles;
+        for (int j = 0; j < steps; ++j) {
+          const double a = start[static_cast<size_t>(id)] + j * step * kPi / 180;
+          if (a != p.in.charts[static_cast<size_t>(id)].angle) angles.push_back(a);
+        }
+        std::vector<Packed> cands(angles.size());
+        std::vector<uint8_t> wins(angles.size(), 0);  // per candidate: smaller than p
+        parallel_for(angles.size(), [&](size_t k) {
+          Packed t = repack_turned(ctx, p, s, id, angles[k]);
+          wins[k] = packing::better_result(t.r, p.r) ? 1 : 0;
+          if (wins[k]) cands[k] = std::move(t);  // memory: only the winners are kept
+        });
+        st.packings += angles.size();
+        size_t best = angles.size();
+        for (size_t k = 0; k < angles.size(); ++k)
+          if (wins[k] && (best == angles.size() || packing::better_result(cands[k].r, cands[best].r))) best = k;
+        if (best == angles.size()) continue;
+        p = std::move(cands[best]);
+        changed = true;
+      }
+      if (!changed) break;
+    }
+    p.turned = 0;
+    for (const PackChart& c : p.in.charts) p.turned += c.angle != start[static_cast<size_t>(c.id)] ? 1 : 0;
+  }
+
+  /// Whether the free trial's packing t is kept against b: fewer pages, or at least
+  /// free_trial_gain less page area.
+  bool frees(const PackResult& t, const PackResult& b) const {
+    const double gain = options().get_double("free_trial_gain");
+    return t.pages < b.pages || (t.pages == b.pages && t.total_area() <= (1 - gain) * b.total_area());
+  }
+
+  /// The free trial (free_trial_applies): best's charts packed with every partly exact chart free
+  /// to rotate (exact_fraction 1, resampled), its angles searched too (search_angles); kept (best =
+  /// it) when frees says so. plain: best's result before its own angle search; st.before: the page
+  /// area without any angle search (the unsearched free trial's when frees would keep it, else
+  /// plain's). Returns whether it was kept. best's plan is dropped (memory: 1M faces).
+  /// note: its other charts take best's masks (t078_L17: preparing the free trial, its masks
+  /// rasterised again, was 0.07 of the packer's 0.35 s).
+  bool free_trial(const StageContext& ctx, Packed& best, const CommonSettings& s, const PackResult& plain,
+                  AngleStats& st) const {
+    st.before = plain.total_area();
+    if (!free_trial_applies(best, s)) {
+      best.plan = PackPlan{};
+      return false;
+    }
+    CommonSettings f = s;
+    f.exact_fraction = 1;
+    Packed t = pack_all(ctx, f, nullptr, &best.plan, &best.in);
+    best.plan = PackPlan{};
+    if (frees(t.r, plain)) st.before = t.r.total_area();
+    search_angles(ctx, t, f, st);
+    t.plan = PackPlan{};
+    if (!frees(t.r, best.r)) return false;
+    best = std::move(t);
+    return true;
+  }
+
   void pack(StageContext& ctx) override {
     const std::string name = "packers.square_tetris";
     CommonSettings s = packing::read_common(options());
@@ -1388,36 +1575,27 @@ class SquareTetris : public Packer {
     size_t grid_trials = 0;  // page widths the block-grid trial packed
     const bool grid_kept = keep_grid_trial(ctx, grid, best, s, grid_trials);
     grid = GridTrial{};
-    // Free trial: the same charts with every partly exact chart free to rotate (resampled), kept
-    // only when it saves at least free_trial_gain of the page area (or a page).
-    // note: its other charts take the kept packing's masks (t078_L17: preparing the free trial,
-    // its masks rasterised again, was 0.07 of the packer's 0.35 s).
-    bool freed = false;
-    const bool free_trial = free_trial_applies(best, s);
-    PackPlan donor = free_trial ? std::move(best.plan) : PackPlan{};
-    best.plan = PackPlan{};  // the masks are not needed any more (memory: 1M faces)
-    if (free_trial) {
-      CommonSettings f = s;
-      f.exact_fraction = 1;
-      Packed t = pack_all(ctx, f, nullptr, &donor, &best.in);
-      donor = PackPlan{};
-      t.plan = PackPlan{};
-      const double gain = options().get_double("free_trial_gain");
-      if (t.r.pages < best.r.pages ||
-          (t.r.pages == best.r.pages && t.r.total_area() <= (1 - gain) * best.r.total_area())) {
-        best = std::move(t);
-        freed = true;
-      }
-    }
-    const PackResult& r = best.r;
+    // Angle search of the free charts, then the free trial (every partly exact chart free to
+    // rotate, resampled), its angles searched too, kept only when it saves at least
+    // free_trial_gain of the page area (or a page).
+    AngleStats angles;
+    PackResult plain;
+    plain.pages = best.r.pages;
+    plain.sizes = best.r.sizes;
+    search_angles(ctx, best, s, angles);
+    const bool freed = free_trial(ctx, best, s, plain, angles);
     ctx.step(name, 1.0);
-    packing::write_layout(ctx, best.in, r);
-    if (ctx.report) write_report(*ctx.report, best, freed, grid_kept, grid_trials);
+    packing::write_layout(ctx, best.in, best.r);
+    if (ctx.report) write_report(*ctx.report, best, freed, grid_kept, grid_trials, angles);
   }
 
   /// The stage's own report fields (write_layout writes the common ones).
-  static void write_report(json& rep, const Packed& best, bool freed, bool grid_kept, size_t grid_trials) {
+  static void write_report(json& rep, const Packed& best, bool freed, bool grid_kept, size_t grid_trials,
+                           const AngleStats& angles) {
     const PackResult& r = best.r;
+    rep["angle_search_packings"] = angles.packings;
+    rep["angle_search_charts_turned"] = best.turned;
+    rep["angle_search_megapixels_before"] = angles.before / 1e6;
     rep["hole_fills"] = r.hole_fills;
     rep["outline_drops"] = r.outline_drops;
     rep["tail_charts"] = best.tail_charts;

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <random>
@@ -541,4 +542,129 @@ TEST(PackersSquareTetris, FreeTrialFreesAPartlyExactChartWhenThatSavesPageArea) 
   auto plain = run_packer(kName, polygon_mesh(polys, 1024));
   EXPECT_FALSE(plain->report.at("free_trial_kept").get<bool>());
   EXPECT_EQ(plain->report.at("charts_exact").get<int>(), 3);
+}
+
+namespace {
+
+/// A V of two arms (length len, width t) from the apex at the origin, along 0 and `deg` degrees,
+/// counter-clockwise, star-shaped from the apex (fan-triangulated into 4 triangles).
+std::vector<Vec2> v_polygon(double len, double t, double deg, const Vec2& at) {
+  const double a = deg * 3.14159265358979323846 / 180;
+  const Vec2 d(std::cos(a), std::sin(a)), n(std::sin(a), -std::cos(a));  // arm 2 and its inner normal
+  // inner corner: y = t on arm 1's inner side, distance t from arm 2's axis on its inner side
+  const double x = (t + t * std::cos(a)) / std::sin(a);
+  return {at, at + Vec2(len, 0), at + Vec2(len, t), at + Vec2(x, t), at + len * d + t * n, at + len * d};
+}
+
+/// Rotates chart 0's atlas UVs by `angle` radians about (0, 0) (a merger's output: chart 0 free).
+std::function<void(Atlas&)> turn_chart0(double angle) {
+  return [angle](Atlas& a) {
+    std::vector<uint8_t> done(a.wedge_uv.size(), 0);
+    for (size_t f = 0; f < a.face_chart.size(); ++f)
+      if (a.face_chart[f] == 0)
+        for (int w : a.face_wedge[f])
+          if (!done[static_cast<size_t>(w)]++) a.wedge_uv[static_cast<size_t>(w)] = packing::rotate(a.wedge_uv[static_cast<size_t>(w)], angle);
+  };
+}
+
+}  // namespace
+
+/// The turn (radians, in (-pi, pi]) that takes chart `chart`'s atlas UVs to its output UVs, from
+/// each of its faces' first edge; every face must give the same turn (one rotation per chart).
+double chart_turn(const PackRun& run, int chart) {
+  const Atlas& a = run.ctx.atlas;
+  double turn = 0;
+  bool first = true;
+  for (size_t f = 0; f < a.face_chart.size(); ++f) {
+    if (a.face_chart[f] != chart) continue;
+    const int w0 = a.face_wedge[f][0], w1 = a.face_wedge[f][1];
+    const Vec2 in = a.wedge_uv[static_cast<size_t>(w1)] - a.wedge_uv[static_cast<size_t>(w0)];
+    const Vec2 out = run.ctx.layout.wedge_uv[static_cast<size_t>(w1)] - run.ctx.layout.wedge_uv[static_cast<size_t>(w0)];
+    const double t = std::atan2(in.x() * out.y() - in.y() * out.x(), in.dot(out));
+    if (!first) {
+      EXPECT_NEAR(std::remainder(t - turn, 2 * 3.14159265358979323846), 0.0, 1e-9) << "face " << f;
+    }
+    turn = first ? t : turn;
+    first = false;
+  }
+  return turn;
+}
+
+TEST(PackersSquareTetris, AngleSearchFindsTheAngleAConcaveChartPacksBestAt) {
+  // Chart 0: a narrow V (two 200 x 10 arms 20 degrees apart, 4 triangles), turned by 0.3 rad by a
+  // "merger", so free; chart 1: a right triangle with 140-texel legs (exact). At the V's
+  // minimum-area angle (one arm along the rectangle) the page is 216 x 144 texels (page_multiple
+  // 4); the search tries that angle plus j * 7.5 degrees and finds a smaller page (200 x 144 when
+  // written). Every chart's output is its atlas UVs turned (no reflection) and moved, no overlaps.
+  const std::vector<std::vector<Vec2>> polys = {v_polygon(200, 10, 20, {300, 300}), {{10, 10}, {150, 10}, {10, 150}}};
+  const json opts = {{"page_multiple", 4}};
+  json off_opts = opts;
+  off_opts["angle_search_max_charts"] = 0;
+  auto on = run_packer(kName, polygon_mesh(polys, 1024), opts, turn_chart0(0.3));
+  auto off = run_packer(kName, polygon_mesh(polys, 1024), off_opts, turn_chart0(0.3));
+  expect_valid_layout(*on, 4);
+  expect_valid_layout(*off, 4);
+  const auto mp = [](const PackRun& r) { return r.report.at("page_megapixels").get<double>(); };
+  EXPECT_LT(mp(*on), mp(*off));
+  EXPECT_EQ(on->report.at("angle_search_charts_turned").get<int>(), 1);
+  EXPECT_EQ(on->report.at("angle_search_packings").get<int>(), 11);  // 12 angles, the first packed already
+  EXPECT_DOUBLE_EQ(on->report.at("angle_search_megapixels_before").get<double>(), mp(*off));
+  EXPECT_EQ(off->report.at("angle_search_packings").get<int>(), 0);
+  // The V's turn differs from the minimum-area one by a multiple of 7.5 degrees (modulo quarter
+  // turns), not by a multiple of 90; the exact triangle turns by quarter turns only.
+  const double step = 7.5 * 3.14159265358979323846 / 180;
+  const double extra = std::remainder(chart_turn(*on, 0) - chart_turn(*off, 0), step);
+  EXPECT_NEAR(extra, 0.0, 1e-9);
+  EXPECT_GT(std::abs(std::remainder(chart_turn(*on, 0) - chart_turn(*off, 0), 3.14159265358979323846 / 2)), 1e-3);
+  EXPECT_NEAR(std::remainder(chart_turn(*on, 1), 3.14159265358979323846 / 2), 0.0, 1e-12);
+  // Same layout with 1 and 2 threads (the width trials of each packing run side by side).
+  for (int threads : {1, 2}) {
+    set_thread_count(threads);
+    auto t = run_packer(kName, polygon_mesh(polys, 1024), opts, turn_chart0(0.3));
+    EXPECT_EQ(t->ctx.layout.wedge_uv, on->ctx.layout.wedge_uv) << threads << " threads";
+    EXPECT_EQ(t->report.at("page_sizes"), on->report.at("page_sizes"));
+  }
+  set_thread_count(0);
+  // The limit: 2 charts, at most 1 allowed: no search.
+  auto limited = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 4}, {"angle_search_max_charts", 1}},
+                            turn_chart0(0.3));
+  EXPECT_EQ(limited->report.at("angle_search_packings").get<int>(), 0);
+  EXPECT_EQ(limited->ctx.layout.wedge_uv, off->ctx.layout.wedge_uv);
+  // Free rotation off: no search either (free charts keep their atlas angle).
+  auto fixed = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 4}, {"free_rotation", false}}, turn_chart0(0.3));
+  EXPECT_EQ(fixed->report.at("angle_search_packings").get<int>(), 0);
+}
+
+TEST(PackersSquareTetris, AngleSearchNeverGivesALargerPage) {
+  // A free 200 x 40 rectangle (turned by 0.3 rad) and a 20 x 20 square: every other angle gives
+  // the rectangle a larger box, so the search keeps the minimum-area angle (the same layout).
+  const std::vector<std::vector<Vec2>> rect = {{{100, 100}, {300, 100}, {300, 140}, {100, 140}},
+                                               {{400, 400}, {420, 400}, {420, 420}, {400, 420}}};
+  auto on = run_packer(kName, polygon_mesh(rect, 1024), json::object(), turn_chart0(0.3));
+  auto off = run_packer(kName, polygon_mesh(rect, 1024), {{"angle_search_max_charts", 0}}, turn_chart0(0.3));
+  expect_valid_layout(*on, 4);
+  EXPECT_EQ(on->report.at("angle_search_packings").get<int>(), 11);
+  EXPECT_EQ(on->report.at("angle_search_charts_turned").get<int>(), 0);
+  EXPECT_EQ(on->ctx.layout.wedge_uv, off->ctx.layout.wedge_uv);
+  // V's of several openings and widths with a bar, a square or a triangle (angle step 15 degrees):
+  // never a larger page than without the search, smaller on some.
+  int smaller = 0;
+  for (double deg : {30.0, 60.0, 70.0})
+    for (int other = 0; other < 3; ++other) {
+      std::vector<std::vector<Vec2>> polys = {v_polygon(200, 10, deg, {300, 300})};
+      if (other == 0) polys.push_back({{10, 10}, {190, 10}, {190, 40}, {10, 40}});
+      if (other == 1) polys.push_back({{10, 10}, {90, 10}, {90, 90}, {10, 90}});
+      if (other == 2) polys.push_back({{10, 10}, {150, 10}, {10, 150}});
+      const json o = {{"page_multiple", 4}, {"angle_step_degrees", 15}};
+      json o_off = o;
+      o_off["angle_search_max_charts"] = 0;
+      auto a = run_packer(kName, polygon_mesh(polys, 1024), o, turn_chart0(0.3));
+      auto b = run_packer(kName, polygon_mesh(polys, 1024), o_off, turn_chart0(0.3));
+      expect_valid_layout(*a, 4);
+      EXPECT_EQ(a->report.at("angle_search_packings").get<int>(), 5);
+      const double ma = a->report.at("page_megapixels").get<double>(), mb = b->report.at("page_megapixels").get<double>();
+      EXPECT_LE(ma, mb) << deg << " degrees, chart " << other;
+      smaller += ma < mb ? 1 : 0;
+    }
+  EXPECT_GE(smaller, 1);
 }

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <tuple>
 
 namespace texdefrag::packing {
@@ -204,6 +205,14 @@ void set_exact_base(PackChart& c, const Atlas& a, const Vec2& t) {
   for (size_t i = 0; i < c.wedges.size(); ++i) c.base[i] = a.wedge_uv[static_cast<size_t>(c.wedges[i])] - c.grid_offset;
 }
 
+/// Sets c.base for a free chart turned by c.angle (its wedges' UVs rotated).
+void set_turned_base(PackChart& c, const Atlas& a) {
+  for (size_t i = 0; i < c.wedges.size(); ++i) {
+    const Vec2& uv = a.wedge_uv[static_cast<size_t>(c.wedges[i])];
+    c.base[i] = c.angle != 0 ? rotate(uv, c.angle) : uv;
+  }
+}
+
 /// Sets c.base (and c.angle) for a free chart: its wedges' UVs, rotated to their exact minimum-area
 /// rectangle when s.free_rotation is on and that shrinks the bounding box by more than
 /// s.rotation_gain.
@@ -222,7 +231,7 @@ void set_free_base(PackChart& c, const Atlas& a, const CommonSettings& s) {
     const double aabb = (xmax - xmin) * (ymax - ymin);
     if (r.angle != 0 && aabb - r.area() > s.rotation_gain * aabb) c.angle = -r.angle;
   }
-  for (size_t i = 0; i < c.wedges.size(); ++i) c.base[i] = c.angle != 0 ? rotate(pts[i], c.angle) : pts[i];
+  set_turned_base(c, a);
 }
 
 /// Prepares chart c (faces already collected): UV area, exactness, base points, boxes, residues.
@@ -253,14 +262,27 @@ PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const
   return in;
 }
 
+void set_free_angle(PackChart& c, const Atlas& a, double angle) {
+  if (c.exact) throw std::logic_error("set_free_angle: chart " + std::to_string(c.id) + " is exact");
+  c.angle = angle;
+  c.base.resize(c.wedges.size());
+  set_turned_base(c, a);
+  compute_boxes(c);
+}
+
+bool fits_max_page(const PackChart& c, const CommonSettings& s) {
+  const int k = block_slack(c, s);  // 0 off the block grid
+  const bool fits0 = c.w[0] + s.gutter + k <= s.max_page_size && c.h[0] + s.gutter + k <= s.max_page_size;
+  const bool fits1 =
+      s.allow_rotation && c.w[1] + s.gutter + k <= s.max_page_size && c.h[1] + s.gutter + k <= s.max_page_size;
+  return fits0 || fits1;
+}
+
 void check_chart_sizes(const PackInput& in, const CommonSettings& s, const std::string& stage) {
   for (const PackChart& c : in.charts) {
     if (c.faces.empty()) continue;
     const int k = block_slack(c, s);  // 0 off the block grid
-    const bool fits0 = c.w[0] + s.gutter + k <= s.max_page_size && c.h[0] + s.gutter + k <= s.max_page_size;
-    const bool fits1 =
-        s.allow_rotation && c.w[1] + s.gutter + k <= s.max_page_size && c.h[1] + s.gutter + k <= s.max_page_size;
-    if (!fits0 && !fits1) {
+    if (!fits_max_page(c, s)) {
       std::ostringstream os;
       os << stage << ": chart " << c.id << " (" << c.faces.size() << " faces) is " << c.w[0] << " x " << c.h[0]
          << " texels, which with the gutter of " << s.gutter << (k > 0 ? " and the block grid" : "")

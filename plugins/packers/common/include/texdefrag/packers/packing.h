@@ -95,6 +95,16 @@ struct PackInput {
 /// `stage`) when the atlas is inconsistent (a wedge shared by two charts, a chart id out of range).
 PackInput prepare_charts(const StageContext& ctx, const CommonSettings& s, const std::string& stage);
 
+/// Turns free chart c (not exact; prepared by prepare_charts) to `angle` radians: sets c.angle, its
+/// base points (its wedges' UVs in atlas `a` rotated by `angle` counter-clockwise about the origin,
+/// as preparation does with the minimum-area angle) and its boxes. So a packing can be redone with
+/// other angles (square_tetris's angle search). Throws std::logic_error for an exact chart.
+void set_free_angle(PackChart& c, const Atlas& a, double angle);
+
+/// Whether chart c with its gutter fits a max_page_size square in some allowed orientation (with
+/// its block-grid slack).
+bool fits_max_page(const PackChart& c, const CommonSettings& s);
+
 /// Where one chart went: its cell box (without gutter) has its lowest corner at (x, y) on `page`,
 /// in orientation q (quarter turns).
 struct Placement {
