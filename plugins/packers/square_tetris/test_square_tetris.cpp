@@ -668,3 +668,36 @@ TEST(PackersSquareTetris, AngleSearchNeverGivesALargerPage) {
     }
   EXPECT_GE(smaller, 1);
 }
+
+TEST(PackersSquareTetris, AngleSearchRunsInTheFreeTrial) {
+  // Chart 0: a V (two 200 x 10 arms 30 degrees apart, 4 triangles) turned by 0.3 rad in the input,
+  // of which a "merger" moved one corner of the first triangle by a quarter texel: 3 triangles stay
+  // grid-exact, so it is exact (quarter turns only) and partly resampled. Chart 1: an exact right
+  // triangle with 140-texel legs. The free trial frees the V; at its minimum-area angle that saves
+  // less than free_trial_gain, so without the search the exact packing stays; with the search the
+  // free trial's V is turned further and its packing saves enough to be kept.
+  std::vector<Vec2> v = v_polygon(200, 10, 30, {0, 0});
+  for (Vec2& p : v) p = packing::rotate(p, 0.3) + Vec2(400.3, 300.7);
+  const std::vector<std::vector<Vec2>> polys = {v, {{10, 10}, {150, 10}, {10, 150}}};
+  auto edit = [](Atlas& a) {
+    for (size_t f = 0; f < a.face_chart.size(); ++f)
+      if (a.face_chart[f] == 0) {
+        a.wedge_uv[static_cast<size_t>(a.face_wedge[f][1])] += Vec2(0.25, -0.1);  // corner 1 of the first triangle
+        break;
+      }
+  };
+  auto on = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 4}}, edit);
+  auto off = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 4}, {"angle_search_max_charts", 0}}, edit);
+  expect_valid_layout(*on, 4);
+  expect_valid_layout(*off, 4);
+  EXPECT_FALSE(off->report.at("free_trial_kept").get<bool>());
+  EXPECT_EQ(off->report.at("charts_exact").get<int>(), 2);
+  EXPECT_TRUE(on->report.at("free_trial_kept").get<bool>());
+  EXPECT_EQ(on->report.at("charts_exact").get<int>(), 1);
+  EXPECT_EQ(on->report.at("angle_search_charts_turned").get<int>(), 1);
+  EXPECT_EQ(on->report.at("angle_search_packings").get<int>(), 11);  // the free trial's V only
+  const auto mp = [](const PackRun& r) { return r.report.at("page_megapixels").get<double>(); };
+  EXPECT_LT(mp(*on), mp(*off));
+  EXPECT_DOUBLE_EQ(on->report.at("angle_search_megapixels_before").get<double>(), mp(*off));
+  EXPECT_GT(std::abs(std::remainder(chart_turn(*on, 0), 3.14159265358979323846 / 2)), 1e-3);  // not a quarter turn
+}
