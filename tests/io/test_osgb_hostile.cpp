@@ -14,6 +14,8 @@
 #include <osg/Geometry>
 #include <osg/PagedLOD>
 #include <osg/ProxyNode>
+#include <osg/Texture2D>
+#include <osgDB/Options>
 #include <osgDB/WriteFile>
 
 #include <gtest/gtest.h>
@@ -118,6 +120,40 @@ std::string hostile_read(const std::string& path, double max_s) {
   return e;
 }
 
+
+/// small_geode()'s triangle strip textured by a 4 x 4 RGB image named kImage (pixel bytes i * 5),
+/// written with the image's pixels inline (osgDB's IncludeData).
+constexpr const char* kImage = "hostile_image.png";
+std::string written_textured(const std::string& path) {
+  osg::ref_ptr<osg::Geode> geode = small_geode();
+  osg::Geometry* g = geode->getDrawable(0)->asGeometry();
+  osg::ref_ptr<osg::Vec2Array> tc = new osg::Vec2Array;
+  for (int i = 0; i < 5; ++i) tc->push_back(osg::Vec2(0.1f * static_cast<float>(i + 1), 0.5f));
+  g->setTexCoordArray(0, tc.get(), osg::Array::BIND_PER_VERTEX);
+  osg::ref_ptr<osg::Image> im = new osg::Image;
+  im->allocateImage(4, 4, 1, GL_RGB, GL_UNSIGNED_BYTE);
+  for (int i = 0; i < 48; ++i) im->data()[i] = static_cast<unsigned char>(i * 5);
+  im->setFileName(kImage);
+  g->getOrCreateStateSet()->setTextureAttributeAndModes(0, new osg::Texture2D(im.get()), osg::StateAttribute::ON);
+  osg::ref_ptr<osgDB::Options> opt = new osgDB::Options("WriteImageHint=IncludeData");
+  EXPECT_TRUE(osgDB::writeNodeFile(*geode, path, opt.get()));
+  return slurp(path);
+}
+
+/// Offset of the inline image's field `k` after its file name: osgDB writes the write hint, the
+/// decision, origin, s, t, r, internal format, pixel format, data type, packing, allocation mode,
+/// byte count (k = 0 .. 11), 32 bits each.
+size_t image_field(const std::string& bytes, int k) {
+  const size_t name = bytes.find(kImage);
+  EXPECT_NE(name, std::string::npos);
+  return name + std::strlen(kImage) + 4 * static_cast<size_t>(k);
+}
+
+uint32_t int_at(const std::string& bytes, size_t at) {
+  uint32_t v = 0;
+  std::memcpy(&v, bytes.data() + at, 4);
+  return v;
+}
 }  // namespace
 
 TEST(OsgbHostile, TheUnchangedFileReads) {
@@ -219,4 +255,39 @@ TEST(OsgbHostile, AFailingTileOfAPyramidNamesItsParent) {
             std::string::npos)
       << e;
   EXPECT_NE(e.find(" (a child of " + tile + "/Tile_A.osgb)"), std::string::npos) << e;
+}
+
+// An inline image's width, height, row packing and byte count are separate fields of the file;
+// osgDB took them as they came, so a file declaring more pixels than its bytes (or a row packing
+// of millions of bytes, what fuzz_osgb found) made the reader copy rows from past the buffer
+// (ASan: SEGV in to_image). Each is now an error naming the file and the image.
+TEST(OsgbHostile, AnImageDeclaringMorePixelsThanItsBytesIsRefused) {
+  const std::string dir = texdefrag::testing::temp_dir();
+  std::string bytes = written_textured(dir + "/ok.osgb");
+  ASSERT_EQ(int_at(bytes, image_field(bytes, 3)), 4u);   // s
+  ASSERT_EQ(int_at(bytes, image_field(bytes, 4)), 4u);   // t
+  ASSERT_EQ(int_at(bytes, image_field(bytes, 9)), 1u);   // packing
+  ASSERT_EQ(int_at(bytes, image_field(bytes, 11)), 48u); // bytes
+  const LoadedModel ok = OsgbFormat().read(dir + "/ok.osgb");
+  ASSERT_EQ(ok.page_images.size(), 1u);
+  ASSERT_EQ(ok.page_images[0].pixels.size(), 48u);
+  EXPECT_EQ(ok.page_images[0].pixels[0], 36 * 5);  // top row first: memory row 3 starts at byte 36
+  std::string packed = bytes;
+  set_int(packed, image_field(packed, 9), 0x003d0001u);
+  put(dir + "/packing.osgb", packed);
+  std::string e = error_of([&] { OsgbFormat().read(dir + "/packing.osgb"); });
+  EXPECT_EQ(e, dir + "/packing.osgb: texture image '" + kImage + "' has row packing 3997697 (expected 1, 2, 4 or 8)");
+  std::string wide = bytes;
+  set_int(wide, image_field(wide, 3), 40u);
+  put(dir + "/wide.osgb", wide);
+  e = error_of([&] { OsgbFormat().read(dir + "/wide.osgb"); });
+  const std::string expected = dir + "/wide.osgb: texture image '" + kImage +
+                               "' declares 40 x 4 pixels of 3 bytes (packing 1: 480 bytes) but holds ";
+  EXPECT_EQ(e.rfind(expected, 0), 0u) << e;
+  EXPECT_NE(e.find("bytes: the file is malformed"), std::string::npos) << e;
+  std::string empty = bytes;
+  set_int(empty, image_field(empty, 4), 0u);
+  put(dir + "/empty.osgb", empty);
+  e = error_of([&] { OsgbFormat().read(dir + "/empty.osgb"); });
+  EXPECT_EQ(e, dir + "/empty.osgb: texture image '" + kImage + "' is 4 x 0 pixels (expected 1 to 65536 a side)");
 }

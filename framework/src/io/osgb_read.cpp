@@ -14,11 +14,15 @@
 #include <osgDB/Registry>
 
 #include <algorithm>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
 #include <set>
+#include <string>
 #include <unordered_map>
 
 namespace fs = std::filesystem;
@@ -185,8 +189,44 @@ bool append_texcoords(const std::string& path, const osg::Array* a, size_t verti
   return true;
 }
 
+/// Bytes level 0 of `im` spans in memory: rows of getRowStepInBytes(), the last one only its
+/// pixels. 0 when the sizes are not positive.
+size_t level0_bytes(const osg::Image& im, int channels) {
+  if (im.s() <= 0 || im.t() <= 0) return 0;
+  return static_cast<size_t>(im.getRowStepInBytes()) * static_cast<size_t>(im.t() - 1) +
+         static_cast<size_t>(im.s()) * static_cast<size_t>(channels);
+}
+
+/// Throws unless `im`'s declared sizes and packing describe a buffer its data holds. osgDB takes an
+/// inline image's width, height, packing and byte count from the file independently (its
+/// InputStream::readImage), so a malformed file declares more pixels (or a row packing of
+/// thousands of bytes) than the bytes that follow: reading them ran past the buffer (fuzz_osgb).
+/// The buffer's size is the allocator's (malloc_usable_size: osgDB and its image plugins allocate
+/// with new[], which is malloc in glibc; the allocator may round a size up by a few bytes, which a
+/// read then stays inside).
+void check_image_buffer(const std::string& path, const osg::Image& im, int channels) {
+  const std::string what = path + ": texture image '" + im.getFileName() + "'";
+  const unsigned int packing = im.getPacking();
+  if (packing != 1 && packing != 2 && packing != 4 && packing != 8)
+    throw FormatError(what + " has row packing " + std::to_string(packing) + " (expected 1, 2, 4 or 8)");
+  constexpr int kMaxSide = 1 << 16;
+  if (im.s() <= 0 || im.t() <= 0 || im.s() > kMaxSide || im.t() > kMaxSide)
+    throw FormatError(what + " is " + std::to_string(im.s()) + " x " + std::to_string(im.t()) +
+                      " pixels (expected 1 to " + std::to_string(kMaxSide) + " a side)");
+#ifdef __GLIBC__
+  const size_t held = malloc_usable_size(const_cast<unsigned char*>(im.data()));
+  const size_t needed = level0_bytes(im, channels);
+  if (held < needed)
+    throw FormatError(what + " declares " + std::to_string(im.s()) + " x " + std::to_string(im.t()) + " pixels of " +
+                      std::to_string(channels) + " bytes (packing " + std::to_string(packing) + ": " +
+                      std::to_string(needed) + " bytes) but holds " + std::to_string(held) +
+                      " bytes: the file is malformed");
+#endif
+}
+
 /// Decodes an osg::Image (8-bit, 1-4 channels) into an Image, rows top to bottom (OpenGL draws
-/// memory row 0 at t = 0, the bottom).
+/// memory row 0 at t = 0, the bottom). Throws FormatError naming `path` and the image when its
+/// pixels are of another kind or its buffer is smaller than its declared sizes.
 Image to_image(const std::string& path, const osg::Image& im) {
   int channels = 0;
   switch (im.getPixelFormat()) {
@@ -200,14 +240,16 @@ Image to_image(const std::string& path, const osg::Image& im) {
     throw FormatError(path + ": texture image '" + im.getFileName() + "' has pixel format " +
                       std::to_string(im.getPixelFormat()) + ", type " + std::to_string(im.getDataType()) +
                       " (expected 8-bit luminance, RG, RGB or RGBA pixels)");
+  check_image_buffer(path, im, channels);
   Image out;
   out.width = im.s();
   out.height = im.t();
   out.channels = channels;
   const size_t row = static_cast<size_t>(out.width) * static_cast<size_t>(channels);
   out.pixels.resize(row * static_cast<size_t>(out.height));
+  const size_t step = im.getRowStepInBytes();  // note: osg::Image::data(col, row) multiplies in 32 bits
   for (int y = 0; y < out.height; ++y) {
-    const unsigned char* src = im.data(0, out.height - 1 - y);
+    const unsigned char* src = im.data() + step * static_cast<size_t>(out.height - 1 - y);
     std::copy(src, src + row, out.pixels.begin() + static_cast<long>(row * static_cast<size_t>(y)));
   }
   return out;
