@@ -701,3 +701,20 @@ TEST(PackersSquareTetris, AngleSearchRunsInTheFreeTrial) {
   EXPECT_DOUBLE_EQ(on->report.at("angle_search_megapixels_before").get<double>(), mp(*off));
   EXPECT_GT(std::abs(std::remainder(chart_turn(*on, 0), 3.14159265358979323846 / 2)), 1e-3);  // not a quarter turn
 }
+
+TEST(PackersSquareTetris, AngleSearchOptionsAreDeclaredWithRanges) {
+  Registry::instance().load_plugins();
+  const StageInfo* info = Registry::instance().find(kName);
+  ASSERT_NE(info, nullptr);
+  auto check = [&](const std::string& key, const json& v) {
+    for (const OptionSpec& o : info->options)
+      if (o.key == key) return check_option_value(o, v);
+    ADD_FAILURE() << "no option " << key;
+    return std::string();
+  };
+  EXPECT_EQ(check("angle_step_degrees", 0.25), "= 0.25 outside [0.5, 45]");
+  EXPECT_EQ(check("angle_step_degrees", 7.5), "");
+  EXPECT_EQ(check("angle_search_max_charts", -1), "= -1 outside [0, 1000]");
+  EXPECT_EQ(check("angle_search_max_charts", 0), "");  // off
+  EXPECT_EQ(check("angle_search_rounds", 0), "= 0 outside [1, 8]");
+}
