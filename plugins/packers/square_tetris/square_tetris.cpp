@@ -930,6 +930,14 @@ class SquareTetris : public Packer {
                           "Rounds of the angle search's coordinate descent over the charts (a round that changes no "
                           "angle ends it)")
                       .range(1, 8));
+    // note: a packing's cost grows with its page area (rasterised outlines); YCB banana's whole
+    // search is 66 packings of an 8-9.5 MP page, about 600 MP (3 s of CPU).
+    out.push_back(opt_double("angle_search_max_work", 2000,
+                             "Work cap of the angle search: a chart's candidates are packed only while the search's "
+                             "candidate packings times the page area they try to beat stay within this many "
+                             "megapixels (a cap on the search's time that does not depend on the machine)")
+                      .range(0, 1e6)
+                      .unit("MP"));
     return out;
   }
 
@@ -1444,6 +1452,8 @@ class SquareTetris : public Packer {
   struct AngleStats {
     size_t packings = 0;  ///< candidate packings over every search run
     double before = 0;    ///< texels^2 of page the packer gives without the search
+    double work = 0;      ///< sum over candidate packings of the page area (MP) they tried to beat
+    bool capped = false;  ///< a chart's candidates were skipped: angle_search_max_work reached
   };
 
   /// The charts the angle search turns in p (settings s): every free chart when the search is on
@@ -1490,7 +1500,9 @@ class SquareTetris : public Packer {
   /// angle_search_charts in turn is tried at its minimum-area angle plus j * angle_step_degrees,
   /// j = 0 .. 90 / step - 1 (quarter turns are tried by every packing), each a whole packing
   /// (repack_turned) against p, and p takes the smallest (fewest pages, then least page area, then
-  /// the earliest j) when it is strictly smaller than p: the result is never larger. A chart's
+  /// the earliest j) when it is strictly smaller than p: the result is never larger. A chart whose
+  /// candidates would take st.work past angle_search_max_work (candidates x p's page area, MP) is
+  /// skipped (st.capped): the cap depends on the packings alone, not on time. A chart's
   /// candidates are packed side by side (one per item; each against the same p), so the result does
   /// not depend on the thread count. st.packings counts the candidates.
   /// note: the minimum-area angle of a concave chart is often not the one that packs best (YCB
@@ -1501,6 +1513,7 @@ class SquareTetris : public Packer {
     const double step = options().get_double("angle_step_degrees");
     const int steps = std::max(1, static_cast<int>(std::floor(90.0 / step + 1e-9)));
     const long long rounds = options().get_int("angle_search_rounds");
+    const double max_work = options().get_double("angle_search_max_work");
     std::vector<double> start(p.in.charts.size(), 0.0);  // the minimum-area angles
     for (const PackChart& c : p.in.charts) start[static_cast<size_t>(c.id)] = c.angle;
     constexpr double kPi = 3.14159265358979323846;
@@ -1512,6 +1525,12 @@ class SquareTetris : public Packer {
           const double a = start[static_cast<size_t>(id)] + j * step * kPi / 180;
           if (a != p.in.charts[static_cast<size_t>(id)].angle) angles.push_back(a);
         }
+        const double work = static_cast<double>(angles.size()) * p.r.total_area() / 1e6;
+        if (st.work + work > max_work) {
+          st.capped = true;
+          continue;
+        }
+        st.work += work;
         std::vector<Packed> cands(angles.size());
         std::vector<uint8_t> wins(angles.size(), 0);  // per candidate: smaller than p
         parallel_for(angles.size(), [&](size_t k) {
@@ -1594,6 +1613,8 @@ class SquareTetris : public Packer {
                            const AngleStats& angles) {
     const PackResult& r = best.r;
     rep["angle_search_packings"] = angles.packings;
+    rep["angle_search_work_megapixels"] = angles.work;
+    rep["angle_search_capped"] = angles.capped;
     rep["angle_search_charts_turned"] = best.turned;
     rep["angle_search_megapixels_before"] = angles.before / 1e6;
     rep["hole_fills"] = r.hole_fills;

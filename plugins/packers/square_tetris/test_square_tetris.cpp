@@ -635,6 +635,29 @@ TEST(PackersSquareTetris, AngleSearchFindsTheAngleAConcaveChartPacksBestAt) {
   EXPECT_EQ(fixed->report.at("angle_search_packings").get<int>(), 0);
 }
 
+TEST(PackersSquareTetris, AngleSearchStopsAtItsWorkCap) {
+  // The V and the triangle of the test above: without the search the page is 216 x 144 texels
+  // (0.031104 MP), so the V's 11 candidates are 11 x 0.031104 = 0.342144 MP of work. A cap of
+  // 0.34 MP skips them (the layout without the search, reported as capped); 0.35 lets them run.
+  const std::vector<std::vector<Vec2>> polys = {v_polygon(200, 10, 20, {300, 300}), {{10, 10}, {150, 10}, {10, 150}}};
+  auto off = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 4}, {"angle_search_max_charts", 0}},
+                        turn_chart0(0.3));
+  ASSERT_DOUBLE_EQ(off->report.at("page_megapixels").get<double>(), 216.0 * 144.0 / 1e6);
+  EXPECT_FALSE(off->report.at("angle_search_capped").get<bool>());
+  auto capped = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 4}, {"angle_search_max_work", 0.34}},
+                           turn_chart0(0.3));
+  EXPECT_TRUE(capped->report.at("angle_search_capped").get<bool>());
+  EXPECT_EQ(capped->report.at("angle_search_packings").get<int>(), 0);
+  EXPECT_DOUBLE_EQ(capped->report.at("angle_search_work_megapixels").get<double>(), 0.0);
+  EXPECT_EQ(capped->ctx.layout.wedge_uv, off->ctx.layout.wedge_uv);
+  auto ran = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 4}, {"angle_search_max_work", 0.35}},
+                        turn_chart0(0.3));
+  EXPECT_FALSE(ran->report.at("angle_search_capped").get<bool>());
+  EXPECT_EQ(ran->report.at("angle_search_packings").get<int>(), 11);
+  EXPECT_NEAR(ran->report.at("angle_search_work_megapixels").get<double>(), 11 * 216.0 * 144.0 / 1e6, 1e-12);
+  EXPECT_LT(ran->report.at("page_megapixels").get<double>(), off->report.at("page_megapixels").get<double>());
+}
+
 TEST(PackersSquareTetris, AngleSearchNeverGivesALargerPage) {
   // A free 200 x 40 rectangle (turned by 0.3 rad) and a 20 x 20 square: every other angle gives
   // the rectangle a larger box, so the search keeps the minimum-area angle (the same layout).
