@@ -87,12 +87,17 @@ std::string written(const osg::Node& node, const std::string& path) {
   return slurp(path);
 }
 
+/// The 32-bit little-endian value at offset `at`.
+uint32_t int_at(const std::string& bytes, size_t at) {
+  uint32_t v = 0;
+  std::memcpy(&v, bytes.data() + at, 4);
+  return v;
+}
+
 /// Offset of the 32-bit little-endian `value` nearest before `at` (within 16 bytes).
 size_t int_before(const std::string& bytes, size_t at, uint32_t value) {
   for (size_t p = at >= 4 ? at - 4 : 0; p + 16 >= at && p < bytes.size(); --p) {
-    uint32_t v = 0;
-    std::memcpy(&v, bytes.data() + p, 4);
-    if (v == value) return p;
+    if (int_at(bytes, p) == value) return p;
     if (p == 0) break;
   }
   ADD_FAILURE() << "no " << value << " before offset " << at;
@@ -119,7 +124,6 @@ std::string hostile_read(const std::string& path, double max_s) {
   EXPECT_EQ(e.rfind(path + ": ", 0), 0u) << e;
   return e;
 }
-
 
 /// small_geode()'s triangle strip textured by a 4 x 4 RGB image named kImage (pixel bytes i * 5),
 /// written with the image's pixels inline (osgDB's IncludeData).
@@ -149,11 +153,6 @@ size_t image_field(const std::string& bytes, int k) {
   return name + std::strlen(kImage) + 4 * static_cast<size_t>(k);
 }
 
-uint32_t int_at(const std::string& bytes, size_t at) {
-  uint32_t v = 0;
-  std::memcpy(&v, bytes.data() + at, 4);
-  return v;
-}
 }  // namespace
 
 TEST(OsgbHostile, TheUnchangedFileReads) {

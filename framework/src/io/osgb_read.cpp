@@ -190,9 +190,8 @@ bool append_texcoords(const std::string& path, const osg::Array* a, size_t verti
 }
 
 /// Bytes level 0 of `im` spans in memory: rows of getRowStepInBytes(), the last one only its
-/// pixels. 0 when the sizes are not positive.
+/// pixels. Requires im.s() and im.t() >= 1 (check_image_buffer checks them first).
 size_t level0_bytes(const osg::Image& im, int channels) {
-  if (im.s() <= 0 || im.t() <= 0) return 0;
   return static_cast<size_t>(im.getRowStepInBytes()) * static_cast<size_t>(im.t() - 1) +
          static_cast<size_t>(im.s()) * static_cast<size_t>(channels);
 }

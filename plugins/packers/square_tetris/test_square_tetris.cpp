@@ -556,6 +556,12 @@ std::vector<Vec2> v_polygon(double len, double t, double deg, const Vec2& at) {
   return {at, at + Vec2(len, 0), at + Vec2(len, t), at + Vec2(x, t), at + len * d + t * n, at + len * d};
 }
 
+/// Chart 0: a narrow V (two 200 x 10 arms 20 degrees apart, 4 triangles); chart 1: a right
+/// triangle with 140-texel legs (the angle-search tests' atlas).
+std::vector<std::vector<Vec2>> v_and_triangle() {
+  return {v_polygon(200, 10, 20, {300, 300}), {{10, 10}, {150, 10}, {10, 150}}};
+}
+
 /// Rotates chart 0's atlas UVs by `angle` radians about (0, 0) (a merger's output: chart 0 free).
 std::function<void(Atlas&)> turn_chart0(double angle) {
   return [angle](Atlas& a) {
@@ -596,7 +602,7 @@ TEST(PackersSquareTetris, AngleSearchFindsTheAngleAConcaveChartPacksBestAt) {
   // minimum-area angle (one arm along the rectangle) the page is 216 x 144 texels (page_multiple
   // 4); the search tries that angle plus j * 7.5 degrees and finds a smaller page (200 x 144 when
   // written). Every chart's output is its atlas UVs turned (no reflection) and moved, no overlaps.
-  const std::vector<std::vector<Vec2>> polys = {v_polygon(200, 10, 20, {300, 300}), {{10, 10}, {150, 10}, {10, 150}}};
+  const std::vector<std::vector<Vec2>> polys = v_and_triangle();
   const json opts = {{"page_multiple", 4}};
   json off_opts = opts;
   off_opts["angle_search_max_charts"] = 0;
@@ -639,7 +645,7 @@ TEST(PackersSquareTetris, AngleSearchStopsAtItsWorkCap) {
   // The V and the triangle of the test above: without the search the page is 216 x 144 texels
   // (0.031104 MP), so the V's 11 candidates are 11 x 0.031104 = 0.342144 MP of work. A cap of
   // 0.34 MP skips them (the layout without the search, reported as capped); 0.35 lets them run.
-  const std::vector<std::vector<Vec2>> polys = {v_polygon(200, 10, 20, {300, 300}), {{10, 10}, {150, 10}, {10, 150}}};
+  const std::vector<std::vector<Vec2>> polys = v_and_triangle();
   auto off = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 4}, {"angle_search_max_charts", 0}},
                         turn_chart0(0.3));
   ASSERT_DOUBLE_EQ(off->report.at("page_megapixels").get<double>(), 216.0 * 144.0 / 1e6);
