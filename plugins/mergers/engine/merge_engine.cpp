@@ -116,6 +116,10 @@ std::vector<OptionSpec> trial_and_weld_specs() {
                  "The unconstrained trial runs when the global ARAP distortion after merging with regions is below "
                  "this share of global_bound")
           .range(0, 1),
+      opt_double("unconstrained_trial_min_singular_value", -1,
+                 "min_singular_value of the unconstrained trial (its collapsed-triangle refusal); negative: the same "
+                 "as min_singular_value")
+          .range(-1, 1),
       opt_bool("fan_targets", false,
                "Solve with target shapes whose angles close every boundary fan of the merged chart that its input UV "
                "angles would open past a full turn (the move is still measured against the input UV triangles)"),
@@ -162,6 +166,7 @@ MergeOptions merge_options_from(const Options& o) {
   m.close_cuts = o.get_bool("close_cuts");
   m.unconstrained_trial = o.get_bool("unconstrained_trial");
   m.unconstrained_trial_share = o.get_double("unconstrained_trial_share");
+  m.unconstrained_trial_min_singular_value = o.get_double("unconstrained_trial_min_singular_value");
   m.unconstrained_trial_beside = o.get_bool("unconstrained_trial_beside");
   m.unconstrained_trial_beside_max_faces = static_cast<size_t>(o.get_int("unconstrained_trial_beside_max_faces"));
   m.fan_targets = o.get_bool("fan_targets");
@@ -291,6 +296,8 @@ class Trial {
     const std::vector<int> no_regions;  // (the engine keeps a reference)
     MergeOptions opt = opt_;
     opt.first_pass_speculation = !beside;
+    if (opt.unconstrained_trial_min_singular_value >= 0)
+      opt.min_singular_value = opt.unconstrained_trial_min_singular_value;
     detail::Engine e(mesh_, topo_, atlas, no_regions, opt, solver_);
     e.input_charts_from(charts_);
     e.cancel_when(cancel);

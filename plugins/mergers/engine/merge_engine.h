@@ -74,6 +74,10 @@ struct MergeOptions {
   /// atlas when it leaves a shorter 3D seam (docs/mergers.md, "Unconstrained trial").
   bool unconstrained_trial = false;
   double unconstrained_trial_share = 0.8;  ///< [0, 1]: share of global_bound under which the trial runs
+  /// The trial's min_singular_value (its collapse refusal); negative = min_singular_value's. The trial runs
+  /// where the regions left the budget unspent, so collapsed-triangle refusals there mostly keep
+  /// seams cut rather than save budget (docs/mergers.md, "The trial's collapse limit").
+  double unconstrained_trial_min_singular_value = -1;
   /// With two threads or more the trial starts on a thread of its own beside the run with regions and
   /// is dropped when that run's distortion reaches the share (same atlas, less wall time, two engines in
   /// memory); false runs it after that run.

@@ -538,6 +538,56 @@ TEST(MergeEngineSteps, TheUnconstrainedTrialIsKeptOnlyWhenItLeavesLessSeam) {
   }
 }
 
+/// The smallest singular value of any face's map from its input UV triangle to its atlas triangle.
+double smallest_singular_value(const test::Run& run) {
+  double smin = 1e9;
+  for (size_t f = 0; f < run.mesh.faces.size(); ++f) {
+    const auto& fw = run.ctx.atlas.face_wedge[f];
+    auto at = [&](int k) { return run.ctx.atlas.wedge_uv[static_cast<size_t>(fw[static_cast<size_t>(k)])]; };
+    Mat2 Dm, Do;
+    Dm.col(0) = run.mesh.corner_texel(f, 1) - run.mesh.corner_texel(f, 0);
+    Dm.col(1) = run.mesh.corner_texel(f, 2) - run.mesh.corner_texel(f, 0);
+    Do.col(0) = at(1) - at(0);
+    Do.col(1) = at(2) - at(0);
+    smin = std::min(smin, signed_singular_values_2x2(Do * Dm.inverse())[1]);
+  }
+  return smin;
+}
+
+TEST(MergeEngineSteps, TheTrialRefusesCollapsedTrianglesByItsOwnLimit) {
+  // By hand: the two squares in two regions and no second pass, so only the unconstrained trial can
+  // merge them; the right square is 1.5x denser, so the weld squeezes triangles of it (or stretches
+  // the left one's) to well under 0.95 of their input size in some direction, at an ARAP cost far
+  // under a bound of 1. With a collapse limit of 0.95 the trial is refused the merge (2 charts, the
+  // seam of length 1 left, not kept); without one it merges into one chart with that squeeze.
+  // unconstrained_trial_min_singular_value decides, whatever min_singular_value says; negative
+  // takes min_singular_value's.
+  const std::vector<int> regions{0, 0, 1, 1};
+  struct Case {
+    double run_limit, trial_limit;
+    bool merged;
+  };
+  for (const Case c : {Case{0.95, -1, false}, Case{0.95, 0, true}, Case{0, 0.95, false}, Case{0, -1, true}}) {
+    const std::string what = "min_singular_value " + std::to_string(c.run_limit) + ", the trial's " +
+                             std::to_string(c.trial_limit);
+    test::Run run(two_squares(false, 1.5));
+    MergeOptions o;
+    o.unconstrained_trial = true;
+    o.global_bound = 1;
+    o.min_singular_value = c.run_limit;
+    o.unconstrained_trial_min_singular_value = c.trial_limit;
+    ArapSolver solver;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, regions, o, solver, {});
+    EXPECT_TRUE(r.unconstrained_trial_run) << what;
+    EXPECT_EQ(r.unconstrained_trial_kept, c.merged) << what;
+    EXPECT_EQ(r.charts_out, c.merged ? 1u : 2u) << what;
+    EXPECT_NEAR(r.seam_left_length_3d(), c.merged ? 0.0 : 1.0, 1e-12) << what;
+    if (c.merged) EXPECT_LT(smallest_singular_value(run), 0.95) << what;
+    else EXPECT_NEAR(smallest_singular_value(run), 1.0, 1e-9) << what;
+    test::expect_valid_atlas(run);
+  }
+}
+
 /// A 64 x 64-texel square (two faces) on a 4096^2 page, around texel (2032, 2032), and a sliver
 /// (positions 1, 4, 2) on its right edge whose corner 4 lies `delta` texels off that edge: its UV
 /// altitude is delta, its UV area 32 delta. In 3D the sliver stands up (position 4 at z = 0.5).
