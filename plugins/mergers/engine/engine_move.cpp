@@ -598,8 +598,10 @@ const char* Engine::check_shapes(const Move& mv) {
     }
     const Mat2 J = jacobian(f);
     if (J.determinant() <= 0) return "flip";
-    // A thin face closed below what a float32 file can orient is as good as flipped (open_thin_faces).
-    if (fthin_[static_cast<size_t>(f)] && oriented_altitude(f) < thin_alt_.at(f)) return "flip";
+    // A face closed below what a float32 file can orient once its chart is turned is as good as
+    // flipped: a thin face below its floor (open_thin_faces), any other below half kThinAltitude.
+    const bool thin = fthin_[static_cast<size_t>(f)];
+    if (oriented_altitude(f) < (thin ? thin_alt_.at(f) : 0.5 * kThinAltitude)) return "flip";
     if (opt_.min_singular_value > 0 && !collapsed)
       collapsed = signed_singular_values_2x2(J)[1] < opt_.min_singular_value;
   }

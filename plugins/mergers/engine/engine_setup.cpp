@@ -134,6 +134,7 @@ void Engine::open_thin_faces() {
   // its tiny input UV area; the engine counts that cost from the start, against the true input.
   const size_t nf = mesh_.faces.size();
   fthin_.assign(nf, 0);
+  std::vector<std::array<int, 4>> closed;  // (face, i, j, k): thin faces still to open
   for (size_t f = 0; f < nf; ++f) {
     if (rest_w_[f] == 0) continue;
     std::array<Vec2, 3> P;
@@ -161,10 +162,28 @@ void Engine::open_thin_faces() {
     Dm.col(1) = Q[2] - Q[0];
     fthin_[f] = 1;
     thin_inv_[fi] = Dm.inverse();
-    const int ci = static_cast<int>(i), cj = static_cast<int>(j), ck = static_cast<int>(k);
-    if (oriented_altitude(fi) < kThinAltitude && open_thin_wedge(fi, ci, cj, ck)) ++rep_.thin_faces_opened;
-    thin_alt_[fi] = std::min(0.5 * kThinAltitude, std::max(0.0, oriented_altitude(fi)));
+    if (oriented_altitude(fi) < kThinAltitude)
+      closed.push_back({fi, static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)});
   }
+  // note: opening a sliver may be refused because it would close a neighbouring sliver that shares
+  // the wedge (seen on a Cedar Creek room: two slivers 1e-5 texel high side by side); once that one is
+  // open, the first may open too. Rounds until one opens nothing.
+  for (size_t opened = 1; opened > 0 && !closed.empty();) {
+    opened = 0;
+    std::vector<std::array<int, 4>> still;
+    for (const auto& [fi, i, j, k] : closed) {
+      // The corner opposite the longest edge first, then either end of that edge.
+      if (open_thin_wedge(fi, i, j, k) || open_thin_wedge(fi, j, k, i) || open_thin_wedge(fi, k, i, j)) ++opened;
+      else still.push_back({fi, i, j, k});
+    }
+    rep_.thin_faces_opened += opened;
+    closed.swap(still);
+  }
+  for (size_t f = 0; f < nf; ++f)
+    if (fthin_[f]) {
+      const int fi = static_cast<int>(f);
+      thin_alt_[fi] = std::min(0.5 * kThinAltitude, std::max(0.0, oriented_altitude(fi)));
+    }
 }
 
 bool Engine::open_thin_wedge(int fi, int i, int j, int k) {
@@ -174,6 +193,9 @@ bool Engine::open_thin_wedge(int fi, int i, int j, int k) {
   const Vec2 a = uv(wedge(fi, i)), b = uv(wedge(fi, j)), old = uv(w);
   const double lb = (b - a).norm();
   if (!(lb > 0)) return false;
+  // Corner k's height over edge (i, j) that gives the triangle's smallest altitude kThinAltitude
+  // (twice the area over the longest edge; kThinAltitude itself when (i, j) is the longest).
+  const double height = kThinAltitude * std::max({lb, (old - a).norm(), (old - b).norm()}) / lb;
   const Vec2 eb = (b - a) / lb, nb(-eb.y(), eb.x());
   const double sd = eb.x() * (old - a).y() - eb.y() * (old - a).x();
   const double side = rest_inv_[static_cast<size_t>(fi)].determinant() > 0 ? 1 : -1;  // its rest shape's turn
@@ -181,7 +203,7 @@ bool Engine::open_thin_wedge(int fi, int i, int j, int k) {
   faces_of_wedge(w, chart(fi), [&](int g, int) {
     if (g != fi && rest_w_[static_cast<size_t>(g)] > 0) others.emplace_back(g, oriented_altitude(g));
   });
-  uv(w) = old + (side * kThinAltitude - sd) * nb;
+  uv(w) = old + (side * height - sd) * nb;
   bool ok = oriented_altitude(fi) > 0;
   for (const auto& [g, before] : others) ok = ok && oriented_altitude(g) >= std::min(before, kThinAltitude);
   if (!ok) uv(w) = old;

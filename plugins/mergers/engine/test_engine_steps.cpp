@@ -660,5 +660,84 @@ TEST(MergeEngineSteps, AThinFaceIsOpenedSoThatAFloat32FileKeepsItsOrientation) {
   EXPECT_EQ(wide.ctx.atlas.wedge_uv, wide_before.wedge_uv);
 }
 
+/// square_with_sliver(delta) plus a second sliver (positions 1, 5, 4) outside the first, sharing its
+/// apex 4: corner 5 at (2064 + 2 delta, 2016), so its longest edge is 1-4 and its altitude 1.5 delta.
+/// In 3D it stands up further (position 5 at (1, 0.25, 0.75)).
+TexturedMesh square_with_two_slivers(double delta) {
+  TexturedMesh m = square_with_sliver(delta);
+  m.positions.emplace_back(1, 0.25, 0.75);
+  m.texcoords.push_back(Vec2(2064 + 2 * delta, 2016) / 4096.0);
+  Face f;
+  f.page = 0;
+  f.source_line = 4;
+  const int tri[3] = {1, 5, 4};
+  for (int k = 0; k < 3; ++k) f.v[static_cast<size_t>(k)] = f.vt[static_cast<size_t>(k)] = tri[k];
+  m.faces.push_back(f);
+  return m;
+}
+
+TEST(MergeEngineSteps, TwoSliversSharingAnApexAreBothOpened) {
+  // By hand (delta 1e-5): opening the first sliver at its apex 4 (out to x = 2064 + 2e-3) would turn
+  // the second over (its apex 5 sits 2e-5 texel out, under the new edge 1-4), and opening the
+  // second first (5 out to 2e-3 over edge 1-4) leaves the first unable to open at 4 without closing
+  // the second below 2e-3 again. So the first opens at an end of its longest edge 1-2: corner 2 moves
+  // off the line 1-4, 4e-3 texel from it (the height over a 32-texel edge that gives a 64-texel
+  // triangle the altitude 2e-3). Both end at altitude 2e-3 or more and keep their orientation at
+  // every angle when stored as float32 (each one alone: zero or negative area at some angles).
+  test::Run input(square_with_two_slivers(1e-5));
+  for (int f : {2, 3}) {
+    int bad = 0;
+    for (int deg = 0; deg < 360; ++deg) bad += stored_twice_area(input.ctx.atlas, f, deg) <= 0;
+    EXPECT_GT(bad, 0) << "face " << f;
+  }
+  test::Run run(square_with_two_slivers(1e-5));
+  ArapSolver solver;
+  const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {}, MergeOptions{}, solver, {});
+  EXPECT_EQ(r.thin_faces, 2u);
+  EXPECT_EQ(r.thin_faces_opened, 2u);
+  for (int f : {2, 3})
+    for (int deg = 0; deg < 360; ++deg) EXPECT_GT(stored_twice_area(run.ctx.atlas, f, deg), 0) << f << " " << deg;
+  for (int f : {2, 3}) {
+    const auto& w = run.ctx.atlas.face_wedge[static_cast<size_t>(f)];
+    const Vec2 a = run.ctx.atlas.wedge_uv[static_cast<size_t>(w[0])], b = run.ctx.atlas.wedge_uv[static_cast<size_t>(w[1])],
+               c = run.ctx.atlas.wedge_uv[static_cast<size_t>(w[2])];
+    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+    const double twice = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+    EXPECT_GE(twice / longest, 2e-3 * (1 - 1e-6)) << "face " << f;
+  }
+  EXPECT_EQ(r.flipped_out, 0u);
+}
+
+TEST(MergeEngineSteps, AMoveMayNotLeaveATriangleTooLowForAFloat32File) {
+  // The two squares aligned, welded and solved (accepted as they are). Then face 2's corner 2 (its
+  // own wedge) is put on face 2's side of the line 1-5 at a height h over it: with h = 5e-4 texel, under
+  // half of kThinAltitude, the triangle turns the right way in doubles but not once turned and stored
+  // as float32, so the move is refused as "flip" even without a collapse limit; with h = 0.05 it is
+  // refused too, but for its distortion.
+  for (double h : {5e-4, 0.05}) {
+    MergeOptions opt;
+    opt.priority = Priority::MMethod;
+    Steps s(two_squares(false), opt);
+    detail::Move mv = s.engine.begin_move(s.left, s.right);
+    s.engine.align(mv);
+    s.engine.weld(mv);
+    s.engine.free_region(mv);
+    s.engine.solve(mv);
+    ASSERT_TRUE(mv.solved);
+    ASSERT_EQ(s.engine.check(mv), nullptr);
+    const Vec2 c1 = s.uv(2, 0), c5 = s.uv(2, 2);
+    Vec2& c2 = s.run.ctx.atlas.wedge_uv[static_cast<size_t>(s.run.ctx.atlas.face_wedge[2][1])];
+    const Vec2 e = (c5 - c1).normalized(), n(-e.y(), e.x());  // n: left of 1 -> 5
+    c2 = 0.5 * (c1 + c5) - h * n;
+    const Vec2 a = c2 - c1;
+    ASSERT_GT(a.x() * e.y() - a.y() * e.x(), 0);  // face 2 (1, 2, 5) still turns as its rest shape
+    const char* why = s.engine.check(mv);
+    ASSERT_NE(why, nullptr);
+    if (h < 1e-3) EXPECT_STREQ(why, "flip");
+    else EXPECT_STRNE(why, "flip");
+    s.engine.rollback();
+  }
+}
+
 }  // namespace
 }  // namespace texdefrag::merge
