@@ -395,14 +395,16 @@ class Engine {
   // ---- static data
   void setup_rest_shapes();
   /// Opens every thin face (see kThinAltitude): its solve target becomes its input triangle with the
-  /// corner opposite its longest edge moved out to kThinAltitude, and its wedge there is moved out in
-  /// the atlas likewise when that leaves every other face using the wedge at least as open as before
-  /// (or as kThinAltitude). Fills fthin_, thin_inv_, thin_alt_ and the report's thin-face counts.
+  /// corner opposite its longest edge moved out to kThinAltitude, and in the atlas that corner's wedge
+  /// is moved out likewise, or else (when that would close another face of the wedge) the wedge of
+  /// either end of the longest edge (open_thin_wedge). Faces left closed are tried again, round after
+  /// round, until a round opens none (a neighbouring sliver opened meanwhile may free them). Fills
+  /// fthin_, thin_inv_, thin_alt_ (from the atlas after every round) and the thin-face counts.
   void open_thin_faces();
   /// open_thin_faces' change to the atlas for thin face fi: its corner k moved out from its edge
-  /// (i, j) to kThinAltitude on its rest shape's side; kept (true) only when fi then turns as its
-  /// rest shape and no other face using that wedge closes below min(its altitude before,
-  /// kThinAltitude), else undone (false).
+  /// (i, j), on its rest shape's side, to the height that gives the triangle the smallest altitude
+  /// kThinAltitude; kept (true) only when fi then turns as its rest shape and no other face using
+  /// that wedge closes below min(its altitude before, kThinAltitude), else undone (false).
   bool open_thin_wedge(int fi, int i, int j, int k);
   /// Smallest altitude (texels) of face f's current UV triangle, signed: negative when it turns
   /// against its rest shape (det J < 0).
