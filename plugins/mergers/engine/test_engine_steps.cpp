@@ -61,6 +61,15 @@ struct Steps {
         right(run.ctx.atlas.face_chart[2]) {
     engine.setup();
   }
+  /// The move of `right` into `left` aligned, welded, its free region chosen and solved (not checked).
+  detail::Move solved_move() {
+    detail::Move mv = engine.begin_move(left, right);
+    engine.align(mv);
+    engine.weld(mv);
+    engine.free_region(mv);
+    engine.solve(mv);
+    return mv;
+  }
   Vec2 uv(int f, int k) const {
     const Atlas& at = run.ctx.atlas;
     return at.wedge_uv[static_cast<size_t>(at.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)])];
@@ -167,11 +176,7 @@ TEST(MergeEngineSteps, AZeroUvAreaFaceMayNotTurnOver) {
   Steps s(m, opt);
   ASSERT_EQ(s.run.ctx.atlas.face_chart[2], s.right);
   EXPECT_EQ(s.engine.chart_info(s.right).uv_area, 128.0);  // face 3 only
-  detail::Move mv = s.engine.begin_move(s.left, s.right);
-  s.engine.align(mv);
-  s.engine.weld(mv);
-  s.engine.free_region(mv);
-  s.engine.solve(mv);
+  detail::Move mv = s.solved_move();
   ASSERT_TRUE(mv.solved);
   {
     const char* why = s.engine.check(mv);
@@ -718,11 +723,7 @@ TEST(MergeEngineSteps, AMoveMayNotLeaveATriangleTooLowForAFloat32File) {
     MergeOptions opt;
     opt.priority = Priority::MMethod;
     Steps s(two_squares(false), opt);
-    detail::Move mv = s.engine.begin_move(s.left, s.right);
-    s.engine.align(mv);
-    s.engine.weld(mv);
-    s.engine.free_region(mv);
-    s.engine.solve(mv);
+    detail::Move mv = s.solved_move();
     ASSERT_TRUE(mv.solved);
     ASSERT_EQ(s.engine.check(mv), nullptr);
     const Vec2 c1 = s.uv(2, 0), c5 = s.uv(2, 2);
