@@ -6,6 +6,7 @@
 #include "local_problem.h"
 #include "merge_engine.h"
 #include "test_support.h"
+#include "test_engine_run.h"
 
 #include "texdefrag/core/distortion.h"
 #include "texdefrag/util/parallel.h"
@@ -335,16 +336,7 @@ TEST(MergeEngine, MinSingularValueRejectsCollapsedTriangles) {
     o.min_singular_value = bound;
     ArapSolver solver;
     const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {}, o, solver, {});
-    double smin = 1e9;
-    for (size_t f = 0; f < run.mesh.faces.size(); ++f) {
-      Mat2 Dm, Do;
-      const auto& fw = run.ctx.atlas.face_wedge[f];
-      Dm.col(0) = run.mesh.corner_texel(f, 1) - run.mesh.corner_texel(f, 0);
-      Dm.col(1) = run.mesh.corner_texel(f, 2) - run.mesh.corner_texel(f, 0);
-      Do.col(0) = run.ctx.atlas.wedge_uv[static_cast<size_t>(fw[1])] - run.ctx.atlas.wedge_uv[static_cast<size_t>(fw[0])];
-      Do.col(1) = run.ctx.atlas.wedge_uv[static_cast<size_t>(fw[2])] - run.ctx.atlas.wedge_uv[static_cast<size_t>(fw[0])];
-      smin = std::min(smin, signed_singular_values_2x2(Do * Dm.inverse())[1]);
-    }
+    const double smin = test::smallest_singular_value(run);
     std::printf("  min_singular_value %.2f: smin %.4f, charts %zu -> %zu, collapse rejections %zu\n", bound, smin,
                 r.charts_in, r.charts_out, r.rejected.count("collapse") ? r.rejected.at("collapse") : size_t{0});
     if (bound > 0) {

@@ -1,11 +1,13 @@
-// One engine set up on a hand-built mesh, shared by the engine's step tests (cuts, holes). Include
-// after test_support.h; the engine's own tests only (it needs the engine's internal header).
+// One engine set up on a hand-built mesh, shared by the engine's step tests (cuts, holes), and the
+// smallest singular value of an atlas. Include after test_support.h; the engine's own tests only (it
+// needs the engine's internal header).
 #pragma once
 
 #include "arap_solver.h"
 #include "engine_internal.h"
 #include "test_support.h"
 
+#include <algorithm>
 #include <set>
 #include <utility>
 
@@ -28,5 +30,22 @@ struct EngineRun {
     return w.size();
   }
 };
+
+/// The smallest singular value of any face's map from its input UV triangle (texels) to its atlas
+/// triangle: below 1 where the atlas compresses a face in some direction (min_singular_value).
+inline double smallest_singular_value(const Run& run) {
+  double smin = 1e9;
+  for (size_t f = 0; f < run.mesh.faces.size(); ++f) {
+    const auto& fw = run.ctx.atlas.face_wedge[f];
+    auto at = [&](int k) { return run.ctx.atlas.wedge_uv[static_cast<size_t>(fw[static_cast<size_t>(k)])]; };
+    Mat2 Dm, Do;
+    Dm.col(0) = run.mesh.corner_texel(f, 1) - run.mesh.corner_texel(f, 0);
+    Dm.col(1) = run.mesh.corner_texel(f, 2) - run.mesh.corner_texel(f, 0);
+    Do.col(0) = at(1) - at(0);
+    Do.col(1) = at(2) - at(0);
+    smin = std::min(smin, signed_singular_values_2x2(Do * Dm.inverse())[1]);
+  }
+  return smin;
+}
 
 }  // namespace texdefrag::merge::test

@@ -3,6 +3,7 @@
 #include "arap_solver.h"
 #include "engine_internal.h"
 #include "test_support.h"
+#include "test_engine_run.h"
 #include "test_overlaps.h"
 
 #include "texdefrag/core/distortion.h"
@@ -543,22 +544,6 @@ TEST(MergeEngineSteps, TheUnconstrainedTrialIsKeptOnlyWhenItLeavesLessSeam) {
   }
 }
 
-/// The smallest singular value of any face's map from its input UV triangle to its atlas triangle.
-double smallest_singular_value(const test::Run& run) {
-  double smin = 1e9;
-  for (size_t f = 0; f < run.mesh.faces.size(); ++f) {
-    const auto& fw = run.ctx.atlas.face_wedge[f];
-    auto at = [&](int k) { return run.ctx.atlas.wedge_uv[static_cast<size_t>(fw[static_cast<size_t>(k)])]; };
-    Mat2 Dm, Do;
-    Dm.col(0) = run.mesh.corner_texel(f, 1) - run.mesh.corner_texel(f, 0);
-    Dm.col(1) = run.mesh.corner_texel(f, 2) - run.mesh.corner_texel(f, 0);
-    Do.col(0) = at(1) - at(0);
-    Do.col(1) = at(2) - at(0);
-    smin = std::min(smin, signed_singular_values_2x2(Do * Dm.inverse())[1]);
-  }
-  return smin;
-}
-
 TEST(MergeEngineSteps, TheTrialRefusesCollapsedTrianglesByItsOwnLimit) {
   // By hand: the two squares in two regions and no second pass, so only the unconstrained trial can
   // merge them; the right square is 1.5x denser, so the weld squeezes triangles of it (or stretches
@@ -587,8 +572,8 @@ TEST(MergeEngineSteps, TheTrialRefusesCollapsedTrianglesByItsOwnLimit) {
     EXPECT_EQ(r.unconstrained_trial_kept, c.merged) << what;
     EXPECT_EQ(r.charts_out, c.merged ? 1u : 2u) << what;
     EXPECT_NEAR(r.seam_left_length_3d(), c.merged ? 0.0 : 1.0, 1e-12) << what;
-    if (c.merged) EXPECT_LT(smallest_singular_value(run), 0.95) << what;
-    else EXPECT_NEAR(smallest_singular_value(run), 1.0, 1e-9) << what;
+    if (c.merged) EXPECT_LT(test::smallest_singular_value(run), 0.95) << what;
+    else EXPECT_NEAR(test::smallest_singular_value(run), 1.0, 1e-9) << what;
     test::expect_valid_atlas(run);
   }
 }

@@ -1567,7 +1567,7 @@ class SquareTetris : public Packer {
   /// the search. st.before: the page area without any search. Returns whether it was kept.
   /// note: its other charts take best's masks (t078_L17: preparing the free trial, its masks
   /// rasterised again, was 0.07 of the packer's 0.35 s).
-  bool free_trial(const StageContext& ctx, Packed& best, const CommonSettings& s, AngleStats& st) const {
+  bool free_trial_and_search(const StageContext& ctx, Packed& best, const CommonSettings& s, AngleStats& st) const {
     st.before = best.r.total_area();
     if (!free_trial_applies(best, s)) {
       search_angles(ctx, best, s, st);
@@ -1600,7 +1600,7 @@ class SquareTetris : public Packer {
     // note: a free trial built on the searched charts could end larger than without the search
     // (t015_L19p6 with the search on its 55 charts: 0.2458 against 0.2396 MP), so it starts unsearched.
     AngleStats angles;
-    const bool freed = free_trial(ctx, best, s, angles);
+    const bool freed = free_trial_and_search(ctx, best, s, angles);
     best.plan = PackPlan{};  // memory: 1M faces
     ctx.step(name, 1.0);
     packing::write_layout(ctx, best.in, best.r);
