@@ -31,6 +31,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <tuple>
 
@@ -660,9 +661,9 @@ class TetrisTrial {
   }
 
   /// Places every chart (pages opened as needed); stops early, marked losing, when `bound` says the
-  /// trial cannot win.
+  /// trial cannot win (*stopped, when given: the charts placed then; left as it is otherwise).
   /// progress: the context to report progress to (the set's first trial only), or null.
-  PackResult run(packing::TrialBound& bound, const StageContext* progress) {
+  PackResult run(packing::TrialBound& bound, const StageContext* progress, size_t* stopped) {
     bound.start();
     r_.placements.assign(in_.charts.size(), Placement{});
     for (size_t n = 0; n < order_.size(); ++n) {
@@ -673,6 +674,7 @@ class TetrisTrial {
                               [&](size_t p) { return try_page(n, p, bound); }, "packers.square_tetris", c.id, width_);
       // A better single-page width was already found: this width cannot beat it (pages only grow).
       if (bound.hopeless(pages_.size(), s_)) {
+        if (stopped) *stopped = n + 1;
         packing::TrialBound::lose(r_, pages_.size());
         return std::move(r_);
       }
@@ -819,13 +821,24 @@ class TetrisTrial {
 /// free position of the page (RasterPage), with `profiles` (outline run masks per turn) per chart id,
 /// or, when `drops` is not empty (a tail too large for that search), dropped on the horizon above
 /// the rectangles as packers.tetris drops charts, with `drops` (column profiles per turn) per chart id.
-/// progress: the context the set's first trial reports progress to, or null.
+/// progress: the context the set's first trial reports progress to, or null. stopped: when given and
+/// the trial stops as hopeless, set to the number of charts placed then (left as it is otherwise).
 PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, const std::vector<int>& order,
                               size_t tail, const std::vector<std::vector<RunMask>>& profiles,
                               const std::vector<std::vector<packing::Profile>>& drops, int width,
-                              packing::TrialBound& bound, const StageContext* progress) {
-  return TetrisTrial(in, s, order, tail, profiles, drops, width).run(bound, progress);
+                              packing::TrialBound& bound, const StageContext* progress, size_t* stopped = nullptr) {
+  return TetrisTrial(in, s, order, tail, profiles, drops, width).run(bound, progress, stopped);
 }
+
+/// The width trials of a packing (every tail order and page width) that stopped as hopeless, so
+/// that the angle search's packings of the same charts with one chart turned can skip those bound
+/// to stop the same way (SquareTetris::bound_to_stop). Thread-safe: width trials run side by side.
+struct TrialLog {
+  std::mutex mutex;
+  std::map<std::pair<std::string, int>, size_t> stopped;  ///< (tail order, page width) -> charts placed then
+  std::map<std::string, std::vector<int>> orders;         ///< tail order name -> the order packed
+  size_t skipped = 0;  ///< trials this packing skipped as bound to stop (angle search)
+};
 
 class SquareTetris : public Packer {
  public:
@@ -1180,6 +1193,7 @@ class SquareTetris : public Packer {
     std::vector<int> planned;  ///< the charts as planned: by area, rectangles first (tail_orders' base)
     size_t tail = 0;           ///< rectangles at the front of the split into rectangles and tail
     size_t turned = 0;         ///< charts the angle search turned off their minimum-area angle
+    std::shared_ptr<TrialLog> log = std::make_shared<TrialLog>();  ///< its width trials that stopped
   };
 
   /// The block-grid trial (option block_grid): the first packing's charts with every exact chart on
@@ -1270,13 +1284,68 @@ class SquareTetris : public Packer {
     return out;
   }
 
-  /// A width trial of p's plan in tail order o (pack_widths' pack_with_width); progress: as for
-  /// pack_square_tetris.
+  /// The smallest padded side (either turn) of the charts order[k..] of in: the enclosed spaces a
+  /// width trial keeps while placing order[k - 1] depend on it (TetrisTrial's suffix minimum).
+  static int smallest_side_from(const PackInput& in, const std::vector<int>& order, size_t k, const CommonSettings& s) {
+    int out = INT_MAX;
+    for (size_t n = k; n < order.size(); ++n) {
+      const PackChart& c = in.charts[static_cast<size_t>(order[n])];
+      out = std::min({out, packing::padded_w(c, 0, s), packing::padded_h(c, 0, s), packing::padded_w(c, 1, s),
+                      packing::padded_h(c, 1, s)});
+    }
+    return out;
+  }
+
+  /// Whether p's width trial in tail order `name` (o) at `width` is bound to stop as hopeless against
+  /// inc's result, p being inc's charts with chart `turned` turned and packed against inc's result
+  /// (repack_turned): inc (one page) had that trial stop after its first k charts, and o starts with
+  /// the same k charts, none of them the turned one, with as many rectangles and the same smallest
+  /// side after them. p's trial then places those k charts as inc's did (same masks and boxes, same
+  /// enclosed spaces kept, same page width), and inc's page then already needed at least the area
+  /// of a single page at least as large as inc's result (or a second page), which p's trial must beat.
+  static bool bound_to_stop(const Packed& p, const std::string& name, const std::vector<int>& o, int width,
+                            const Packed& inc, int turned, const CommonSettings& s) {
+    if (inc.r.pages != 1 || p.plan.rects != inc.plan.rects) return false;
+    std::lock_guard<std::mutex> lock(inc.log->mutex);
+    const auto stop = inc.log->stopped.find({name, width});
+    const auto io = inc.log->orders.find(name);
+    if (stop == inc.log->stopped.end() || io == inc.log->orders.end()) return false;
+    const size_t k = stop->second;
+    if (k > o.size() || io->second.size() != o.size() || !std::equal(o.begin(), o.begin() + static_cast<long>(k), io->second.begin()))
+      return false;
+    if (std::find(o.begin(), o.begin() + static_cast<long>(k), turned) != o.begin() + static_cast<long>(k)) return false;
+    return smallest_side_from(p.in, o, k, s) == smallest_side_from(inc.in, io->second, k, s);
+  }
+
+  /// A width trial of p's plan in tail order `name` (o) (pack_widths' pack_with_width), logged in
+  /// p.log when it stops as hopeless; progress: as for pack_square_tetris. inc, turned: when inc is
+  /// given, p is inc's charts with chart `turned` turned, packed against inc's result: a trial
+  /// bound_to_stop is not packed but returned lost (counted in p.log->skipped) and logged as
+  /// stopping where inc's did.
   static std::function<PackResult(int, packing::TrialBound&)> trial(const Packed& p, const CommonSettings& s,
-                                                                    const std::vector<int>& o,
-                                                                    const StageContext* progress) {
-    return [&p, &s, &o, progress](int width, packing::TrialBound& bound) {
-      return pack_square_tetris(p.in, s, o, p.plan.rects, p.plan.profiles, p.plan.drops, width, bound, progress);
+                                                                    const std::string& name, const std::vector<int>& o,
+                                                                    const StageContext* progress,
+                                                                    const Packed* inc = nullptr, int turned = -1) {
+    return [&p, &s, &name, &o, progress, inc, turned](int width, packing::TrialBound& bound) {
+      size_t stopped = 0;
+      PackResult r;
+      if (inc && bound_to_stop(p, name, o, width, *inc, turned, s)) {
+        {
+          std::lock_guard<std::mutex> lock(inc->log->mutex);
+          stopped = inc->log->stopped.at({name, width});
+        }
+        r.placements.assign(p.in.charts.size(), Placement{});
+        packing::TrialBound::lose(r, 1);
+        std::lock_guard<std::mutex> lock(p.log->mutex);
+        ++p.log->skipped;
+      } else {
+        r = pack_square_tetris(p.in, s, o, p.plan.rects, p.plan.profiles, p.plan.drops, width, bound, progress, &stopped);
+      }
+      if (stopped > 0) {
+        std::lock_guard<std::mutex> lock(p.log->mutex);
+        p.log->stopped[{name, width}] = stopped;
+      }
+      return r;
     };
   }
 
@@ -1303,10 +1372,14 @@ class SquareTetris : public Packer {
   /// as it cannot beat the best so far. Page widths come from the area the charts need as placed
   /// (padded boxes of the rectangles, dilated outlines of the tail) as well as from their boxes.
   void pack_orders(const StageContext& ctx, Packed& p, const CommonSettings& s, GridTrial* grid,
-                   const PackResult* rival = nullptr) const {
+                   const PackResult* rival = nullptr, const Packed* inc = nullptr, int turned = -1) const {
     const PackInput& in = p.in;
     PackResult& r = p.r;
     const auto orders = tail_orders(in, s, p.planned, p.tail, p.tail_skipped);
+    {
+      std::lock_guard<std::mutex> lock(p.log->mutex);
+      for (const auto& [name, o] : orders) p.log->orders[name] = o;
+    }
     const std::vector<int> widths = packing::trial_widths(in, s, p.plan.need);
     const bool refining = refines(s, p.tail_charts, p.tail_skipped);
     int best_width = 0;
@@ -1324,20 +1397,21 @@ class SquareTetris : public Packer {
       const bool last = !refining && k + 1 == orders.size();
       int w = 0;
       const PackResult* incumbent = best_o ? &r : rival;
-      PackResult t = packing::pack_widths(in, s, widths, trial(p, s, o, rival ? nullptr : &ctx), &w, incumbent, -1,
+      PackResult t = packing::pack_widths(in, s, widths, trial(p, s, name, o, rival ? nullptr : &ctx, inc, turned), &w, incumbent, -1,
                                           last ? beside(name, widths) : packing::BesideJob{});
       if (!incumbent || packing::better_result(t, *incumbent))
         r = std::move(t), p.order = name, best_width = w, best_o = &o;
     }
     p.orders = orders.size();
     if (!best_o) {  // every order lost to the rival
+      p.width_trials = widths.size() * orders.size();
       packing::TrialBound::lose(r, static_cast<size_t>(rival->pages));
       return;
     }
     const std::vector<int> extra = refine_widths(in, s, widths, best_width, p.tail_charts, p.tail_skipped);
     if (!extra.empty()) {
       int w = 0;
-      PackResult t = packing::pack_widths(in, s, extra, trial(p, s, *best_o, rival ? nullptr : &ctx), &w, &r, -1,
+      PackResult t = packing::pack_widths(in, s, extra, trial(p, s, p.order, *best_o, rival ? nullptr : &ctx, inc, turned), &w, &r, -1,
                                           beside(p.order, extra));
       if (packing::better_result(t, r)) r = std::move(t), best_width = w, p.refined = true;
     }
@@ -1377,7 +1451,7 @@ class SquareTetris : public Packer {
     const std::vector<int> widths{std::max(width, packing::min_page_width(p.in, grid.g))};
     const double bar = first.pages == 1 ? (1 + grid.cost) * first.total_area() : -1;
     int w = 0;
-    p.r = packing::pack_widths(p.in, grid.g, widths, trial(p, grid.g, same->second, progress), &w, nullptr, bar);
+    p.r = packing::pack_widths(p.in, grid.g, widths, trial(p, grid.g, same->first, same->second, progress), &w, nullptr, bar);
     p.order = same->first;
     p.width = w;
     p.orders = 1;
@@ -1454,6 +1528,8 @@ class SquareTetris : public Packer {
     double before = 0;    ///< texels^2 of page the packer gives without the search
     double work = 0;      ///< sum over candidate packings of the page area (MP) they tried to beat
     bool capped = false;  ///< a chart's candidates were skipped: angle_search_max_work reached
+    size_t trials = 0;    ///< width trials of the candidate packings, packed or skipped
+    size_t skipped = 0;   ///< of those, skipped as bound to stop (bound_to_stop)
   };
 
   /// The charts the angle search turns in p (settings s): every free chart when the search is on
@@ -1492,7 +1568,7 @@ class SquareTetris : public Packer {
       return lost;
     }
     Packed t = prepare_packing(ctx, s, &p.plan, &p.in, &in);
-    pack_orders(ctx, t, s, nullptr, &p.r);
+    pack_orders(ctx, t, s, nullptr, &p.r, &p, id);
     return t;
   }
 
@@ -1533,12 +1609,15 @@ class SquareTetris : public Packer {
         st.work += work;
         std::vector<Packed> cands(angles.size());
         std::vector<uint8_t> wins(angles.size(), 0);  // per candidate: smaller than p
+        std::vector<std::pair<size_t, size_t>> trials(angles.size());  // per candidate: width trials, skipped
         parallel_for(angles.size(), [&](size_t k) {
           Packed t = repack_turned(ctx, p, s, id, angles[k]);
+          trials[k] = {t.width_trials, t.log->skipped};
           wins[k] = packing::better_result(t.r, p.r) ? 1 : 0;
           if (wins[k]) cands[k] = std::move(t);  // memory: only the winners are kept
         });
         st.packings += angles.size();
+        for (const auto& [n, skipped] : trials) st.trials += n, st.skipped += skipped;
         size_t best = angles.size();
         for (size_t k = 0; k < angles.size(); ++k)
           if (wins[k] && (best == angles.size() || packing::better_result(cands[k].r, cands[best].r))) best = k;
@@ -1614,6 +1693,8 @@ class SquareTetris : public Packer {
     rep["angle_search_packings"] = angles.packings;
     rep["angle_search_work_megapixels"] = angles.work;
     rep["angle_search_capped"] = angles.capped;
+    rep["angle_search_width_trials"] = angles.trials;
+    rep["angle_search_width_trials_skipped"] = angles.skipped;
     rep["angle_search_charts_turned"] = best.turned;
     rep["angle_search_megapixels_before"] = angles.before / 1e6;
     rep["hole_fills"] = r.hole_fills;
