@@ -14,7 +14,8 @@
 // CACHE.atlas is written when missing (detector + merger of CONFIG) and read otherwise. Each
 // PACKER (e.g. packers.square_tetris:gutter=4,width_trials=8) is run on the cached atlas; one line
 // per packer: model, packer, charts, efficiency, output MP, input MP, wall ms, CPU ms (square_tetris
-// with an outline tail adds: UV area / outline texels, outline / dilated outline, dilated / page).
+// with an outline tail adds: UV area / outline texels, outline / dilated outline, dilated / page, and
+// the pages trimmed to their charts before rounding / page).
 // square_tetris adds its angle search's report (packings, charts turned, MP before, free trial kept).
 // PACK_LAB_PAGES=PREFIX writes each packing's pages as PREFIX_<packer>_<page>.ppm, every chart's
 // faces in a colour of its own (texel centres inside a face), to look at a layout.
@@ -29,6 +30,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <ctime>
 #include <cstdio>
@@ -332,6 +334,26 @@ void write_pages(const Atlas& a, const Layout& layout, const std::string& prefix
   }
 }
 
+/// Texels^2 of pc's pages trimmed to their charts as the packers trim them before rounding (the
+/// largest wedge coordinate, rounded up, plus the gutter's upper share; gutter from options o, else 4).
+double trimmed_area(const StageContext& pc, const json& o) {
+  const int gutter = o.contains("gutter") ? o["gutter"].get<int>() : 4;
+  const int hi = gutter - gutter / 2;
+  std::vector<double> w(pc.layout.pages.size(), 0), h(pc.layout.pages.size(), 0);
+  for (size_t f = 0; f < pc.atlas.face_chart.size(); ++f) {
+    const int page = pc.layout.chart_page[static_cast<size_t>(pc.atlas.face_chart[f])];
+    if (page < 0) continue;
+    for (int wi : pc.atlas.face_wedge[f]) {
+      const Vec2& uv = pc.layout.wedge_uv[static_cast<size_t>(wi)];
+      w[static_cast<size_t>(page)] = std::max(w[static_cast<size_t>(page)], std::ceil(uv.x() - 1e-6) + hi);
+      h[static_cast<size_t>(page)] = std::max(h[static_cast<size_t>(page)], std::ceil(uv.y() - 1e-6) + hi);
+    }
+  }
+  double area = 0;
+  for (size_t k = 0; k < w.size(); ++k) area += w[k] * h[k];
+  return area;
+}
+
 /// Packs the merged atlas with one PACKER argument and prints its line (see the top of the file).
 void run_packer(const Lab& lab, const std::string& spec, int index) {
   const auto [name, o] = parse_packer_spec(spec);
@@ -376,6 +398,8 @@ void run_packer(const Lab& lab, const std::string& spec, int index) {
                 rep.value("chart_uv_area", 0.0) / rep["outline_texels"].get<double>(),
                 rep["outline_texels"].get<double>() / rep["padded_outline_texels"].get<double>(),
                 rep["padded_outline_texels"].get<double>() / (mp * 1e6));
+  // the pages trimmed to their charts (before rounding to page_multiple): what the rounding costs
+  if (rep.contains("outline_texels")) std::printf("\ttrimmed/page %.3f", trimmed_area(pc, o) / (mp * 1e6));
   if (lab.overlaps) {
     const OverlapSplit ov = overlap_split(*lab.mesh, pc.atlas, &pc.layout);
     std::printf("\tpacked overlaps: same %zu cross %zu zero %zu\n", ov.same_chart, ov.cross_chart, ov.zero_area);

@@ -661,9 +661,10 @@ class TetrisTrial {
   }
 
   /// Places every chart (pages opened as needed); stops early, marked losing, when `bound` says the
-  /// trial cannot win (*stopped, when given: the charts placed then; left as it is otherwise).
+  /// trial cannot win. areas: when given, gets page 0's area (TrialBound::area) after each chart
+  /// placed, infinity once a second page is open.
   /// progress: the context to report progress to (the set's first trial only), or null.
-  PackResult run(packing::TrialBound& bound, const StageContext* progress, size_t* stopped) {
+  PackResult run(packing::TrialBound& bound, const StageContext* progress, std::vector<double>* areas) {
     bound.start();
     r_.placements.assign(in_.charts.size(), Placement{});
     for (size_t n = 0; n < order_.size(); ++n) {
@@ -672,9 +673,9 @@ class TetrisTrial {
       const PackChart& c = chart(n);
       packing::place_on_pages(pages_, [&] { return PageState(width_, s_.max_page_size); },
                               [&](size_t p) { return try_page(n, p, bound); }, "packers.square_tetris", c.id, width_);
+      if (areas) areas->push_back(pages_.size() > 1 ? std::numeric_limits<double>::infinity() : bound.area(s_));
       // A better single-page width was already found: this width cannot beat it (pages only grow).
       if (bound.hopeless(pages_.size(), s_)) {
-        if (stopped) *stopped = n + 1;
         packing::TrialBound::lose(r_, pages_.size());
         return std::move(r_);
       }
@@ -821,22 +822,26 @@ class TetrisTrial {
 /// free position of the page (RasterPage), with `profiles` (outline run masks per turn) per chart id,
 /// or, when `drops` is not empty (a tail too large for that search), dropped on the horizon above
 /// the rectangles as packers.tetris drops charts, with `drops` (column profiles per turn) per chart id.
-/// progress: the context the set's first trial reports progress to, or null. stopped: when given and
-/// the trial stops as hopeless, set to the number of charts placed then (left as it is otherwise).
+/// progress: the context the set's first trial reports progress to, or null. areas: as for
+/// TetrisTrial::run.
 PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, const std::vector<int>& order,
                               size_t tail, const std::vector<std::vector<RunMask>>& profiles,
                               const std::vector<std::vector<packing::Profile>>& drops, int width,
-                              packing::TrialBound& bound, const StageContext* progress, size_t* stopped = nullptr) {
-  return TetrisTrial(in, s, order, tail, profiles, drops, width).run(bound, progress, stopped);
+                              packing::TrialBound& bound, const StageContext* progress,
+                              std::vector<double>* areas = nullptr) {
+  return TetrisTrial(in, s, order, tail, profiles, drops, width).run(bound, progress, areas);
 }
 
-/// The width trials of a packing (every tail order and page width) that stopped as hopeless, so
-/// that the angle search's packings of the same charts with one chart turned can skip those bound
-/// to stop the same way (SquareTetris::bound_to_stop). Thread-safe: width trials run side by side.
+/// The width trials of a packing (every tail order and page width): page 0's area after each chart
+/// they placed, so that the angle search's packings of the same charts with one chart turned can
+/// skip the trials bound to stop (SquareTetris::bound_to_stop). Thread-safe: width trials run side
+/// by side. note: a trial stopped as hopeless logs the charts it placed, which depend on when the
+/// other trials ended; what is read from it (the first chart after which the area reaches a given
+/// page) lies within them and does not.
 struct TrialLog {
   std::mutex mutex;
-  std::map<std::pair<std::string, int>, size_t> stopped;  ///< (tail order, page width) -> charts placed then
-  std::map<std::string, std::vector<int>> orders;         ///< tail order name -> the order packed
+  std::map<std::pair<std::string, int>, std::vector<double>> areas;  ///< (tail order, page width) -> areas
+  std::map<std::string, std::vector<int>> orders;                    ///< tail order name -> the order packed
   size_t skipped = 0;  ///< trials this packing skipped as bound to stop (angle search)
 };
 
@@ -1296,55 +1301,56 @@ class SquareTetris : public Packer {
     return out;
   }
 
-  /// Whether p's width trial in tail order `name` (o) at `width` is bound to stop as hopeless against
-  /// inc's result, p being inc's charts with chart `turned` turned and packed against inc's result
-  /// (repack_turned): inc (one page) had that trial stop after its first k charts, and o starts with
-  /// the same k charts, none of them the turned one, with as many rectangles and the same smallest
-  /// side after them. p's trial then places those k charts as inc's did (same masks and boxes, same
-  /// enclosed spaces kept, same page width), and inc's page then already needed at least the area
-  /// of a single page at least as large as inc's result (or a second page), which p's trial must beat.
-  static bool bound_to_stop(const Packed& p, const std::string& name, const std::vector<int>& o, int width,
-                            const Packed& inc, int turned, const CommonSettings& s) {
-    if (inc.r.pages != 1 || p.plan.rects != inc.plan.rects) return false;
+  /// The number of charts after which p's width trial in tail order `name` (o) at `width` is bound
+  /// to stop as hopeless against inc's result, or 0 when it is not known to be; p is inc's charts
+  /// with chart `turned` turned, packed against inc's result (repack_turned). inc (one page) logged
+  /// that trial; k is the first count of charts after which its page 0 needed at least inc's page
+  /// area (or a second page); o starts with the same k charts, none of them the turned one, with as
+  /// many rectangles and the same smallest side after them. p's trial places those k charts as inc's
+  /// did (same masks and boxes, same enclosed spaces kept, same page width), so its page then needs
+  /// as much, and it stops there at the latest (it must beat inc's page).
+  static size_t bound_to_stop(const Packed& p, const std::string& name, const std::vector<int>& o, int width,
+                              const Packed& inc, int turned, const CommonSettings& s) {
+    if (inc.r.pages != 1 || p.plan.rects != inc.plan.rects) return 0;
     std::lock_guard<std::mutex> lock(inc.log->mutex);
-    const auto stop = inc.log->stopped.find({name, width});
+    const auto log = inc.log->areas.find({name, width});
     const auto io = inc.log->orders.find(name);
-    if (stop == inc.log->stopped.end() || io == inc.log->orders.end()) return false;
-    const size_t k = stop->second;
-    if (k > o.size() || io->second.size() != o.size() || !std::equal(o.begin(), o.begin() + static_cast<long>(k), io->second.begin()))
-      return false;
-    if (std::find(o.begin(), o.begin() + static_cast<long>(k), turned) != o.begin() + static_cast<long>(k)) return false;
-    return smallest_side_from(p.in, o, k, s) == smallest_side_from(inc.in, io->second, k, s);
+    if (log == inc.log->areas.end() || io == inc.log->orders.end()) return 0;
+    const std::vector<double>& a = log->second;
+    const size_t k = static_cast<size_t>(std::find_if(a.begin(), a.end(), [&](double v) { return v >= inc.r.total_area(); }) - a.begin()) + 1;
+    if (k > a.size() || k > o.size() || io->second.size() != o.size() ||
+        !std::equal(o.begin(), o.begin() + static_cast<long>(k), io->second.begin()))
+      return 0;
+    if (std::find(o.begin(), o.begin() + static_cast<long>(k), turned) != o.begin() + static_cast<long>(k)) return 0;
+    return smallest_side_from(p.in, o, k, s) == smallest_side_from(inc.in, io->second, k, s) ? k : 0;
   }
 
   /// A width trial of p's plan in tail order `name` (o) (pack_widths' pack_with_width), logged in
-  /// p.log when it stops as hopeless; progress: as for pack_square_tetris. inc, turned: when inc is
-  /// given, p is inc's charts with chart `turned` turned, packed against inc's result: a trial
-  /// bound_to_stop is not packed but returned lost (counted in p.log->skipped) and logged as
-  /// stopping where inc's did.
+  /// p.log; progress: as for pack_square_tetris. inc, turned: when inc is given, p is inc's charts
+  /// with chart `turned` turned, packed against inc's result: a trial bound_to_stop is not packed
+  /// but returned lost (counted in p.log->skipped) and logged with inc's areas up to where it stops.
   static std::function<PackResult(int, packing::TrialBound&)> trial(const Packed& p, const CommonSettings& s,
                                                                     const std::string& name, const std::vector<int>& o,
                                                                     const StageContext* progress,
                                                                     const Packed* inc = nullptr, int turned = -1) {
     return [&p, &s, &name, &o, progress, inc, turned](int width, packing::TrialBound& bound) {
-      size_t stopped = 0;
+      std::vector<double> areas;
       PackResult r;
-      if (inc && bound_to_stop(p, name, o, width, *inc, turned, s)) {
+      if (const size_t k = inc ? bound_to_stop(p, name, o, width, *inc, turned, s) : 0) {
         {
           std::lock_guard<std::mutex> lock(inc->log->mutex);
-          stopped = inc->log->stopped.at({name, width});
+          const std::vector<double>& a = inc->log->areas.at({name, width});
+          areas.assign(a.begin(), a.begin() + static_cast<long>(k));
         }
         r.placements.assign(p.in.charts.size(), Placement{});
         packing::TrialBound::lose(r, 1);
         std::lock_guard<std::mutex> lock(p.log->mutex);
         ++p.log->skipped;
       } else {
-        r = pack_square_tetris(p.in, s, o, p.plan.rects, p.plan.profiles, p.plan.drops, width, bound, progress, &stopped);
+        r = pack_square_tetris(p.in, s, o, p.plan.rects, p.plan.profiles, p.plan.drops, width, bound, progress, &areas);
       }
-      if (stopped > 0) {
-        std::lock_guard<std::mutex> lock(p.log->mutex);
-        p.log->stopped[{name, width}] = stopped;
-      }
+      std::lock_guard<std::mutex> lock(p.log->mutex);
+      p.log->areas[{name, width}] = std::move(areas);
       return r;
     };
   }

@@ -457,10 +457,11 @@ void TrialBound::placed(const PackChart& c, const Placement& p, const CommonSett
   used_h_ = std::max(used_h_, p.y + c.h[p.q] + hi);
 }
 
-bool TrialBound::hopeless(size_t pages, const CommonSettings& s) const {
-  const double area = static_cast<double>(round_page_side(used_w_, s)) * round_page_side(used_h_, s);
-  return board_->beaten(index_, pages, area);
+double TrialBound::area(const CommonSettings& s) const {
+  return static_cast<double>(round_page_side(used_w_, s)) * round_page_side(used_h_, s);
 }
+
+bool TrialBound::hopeless(size_t pages, const CommonSettings& s) const { return board_->beaten(index_, pages, area(s)); }
 
 void TrialBound::lose(PackResult& r, size_t pages) { r.pages = std::max(2, static_cast<int>(pages) + 1); }
 

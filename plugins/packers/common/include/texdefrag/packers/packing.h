@@ -178,6 +178,9 @@ class TrialBound {
   void start() { used_w_ = used_h_ = 0; }
   /// Notes chart c placed with p (its page-0 footprint as size_pages trims it).
   void placed(const PackChart& c, const Placement& p, const CommonSettings& s);
+  /// Page 0's area so far (texels^2): its used sides rounded as size_pages rounds them; what
+  /// hopeless compares with the recorded single pages.
+  double area(const CommonSettings& s) const;
   /// Whether the running trial, with `pages` pages open, cannot beat a recorded single page.
   bool hopeless(size_t pages, const CommonSettings& s) const;
   /// Marks a trial stopped as hopeless as losing (more pages than the recorded single page).
