@@ -390,8 +390,8 @@ void run_packer(const Lab& lab, const std::string& spec, int index) {
                 rep.value("angle_search_charts_turned", 0), rep.value("angle_search_megapixels_before", 0.0),
                 rep.value("free_trial_kept", false) ? 1 : 0);
   if (rep.contains("angle_search_width_trials"))
-    std::printf(" trials %d skipped %d", rep.value("angle_search_width_trials", 0),
-                rep.value("angle_search_width_trials_skipped", 0));
+    std::printf(" trials %d skipped %d replayed %d", rep.value("angle_search_width_trials", 0),
+                rep.value("angle_search_width_trials_skipped", 0), rep.value("angle_search_placements_replayed", 0));
   // square_tetris: UV area / outline texels / dilated outline texels (where the page goes)
   if (rep.contains("outline_texels"))
     std::printf("\tuv/outline %.3f\toutline/padded %.3f\tpadded/page %.3f",

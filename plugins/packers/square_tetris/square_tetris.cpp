@@ -243,6 +243,7 @@ struct RunCells {
   std::vector<std::tuple<int, int, int>> checks;  ///< every run (row, a, len), in checking order
   int core_w = 0, core_h = 0, core_y = 0;  ///< a solid rectangle inside the mask: size, lowest row
   long long outline_cells = 0, cells = 0;  ///< cells of the outline before and after dilation
+  int shortest = INT_MAX;  ///< the shortest run (INT_MAX: no cells)
 };
 
 /// The cells of an empty mask (a duplicate turn, or a turn a rectangle is never placed in).
@@ -285,6 +286,7 @@ RunMask make_run_mask(const PackChart& c, int q, const CommonSettings& s, const 
       const int e = zero ? static_cast<int>(static_cast<const uint8_t*>(zero) - row) : m.width;
       r.rows[static_cast<size_t>(y)].push_back({x, e - x});
       if (e - x > r.wide_len) { r.wide_row = y; r.wide_a = x; r.wide_len = e - x; }
+      r.shortest = std::min(r.shortest, e - x);
       x = e;
     }
   }
@@ -654,10 +656,20 @@ class TetrisTrial {
                                  packing::padded_w(c, 1, s), packing::padded_h(c, 1, s)});
     }
     // Shortest run of any tail mask: the rasters keep only free runs at least this long.
+    // note: each mask's shortest run is kept with its cells (every run of the tail's masks was read
+    // here per width trial: 14% of t078_L17's packer CPU with the angle search opened).
     for (size_t n = tail; n < order.size() && drops.empty(); ++n)
-      for (const RunMask& m : profiles[static_cast<size_t>(order[n])])
-        for (const auto& row : m.runs->rows)
-          for (const auto& run : row) min_run_ = std::min(min_run_, run.second);
+      for (const RunMask& m : profiles[static_cast<size_t>(order[n])]) min_run_ = std::min(min_run_, m.runs->shortest);
+  }
+
+  /// Makes run() take the first n charts of the order at `placed` (their placements, in order, on
+  /// page 0, from a trial of the same charts with the same masks and page width) instead of
+  /// searching: for an outline tail with no rectangles only (n = 0 otherwise).
+  /// note: the raster's resume rows (RasterPage::lowest_fit) only ever skip rows, so searches after
+  /// the replay give the same positions without the replayed charts' entries.
+  void replay(const std::vector<Placement>& placed, size_t n) {
+    replay_ = &placed;
+    replay_n_ = tail_ == 0 && drops_.empty() ? std::min(n, placed.size()) : 0;
   }
 
   /// Places every chart (pages opened as needed); stops early, marked losing, when `bound` says the
@@ -671,8 +683,11 @@ class TetrisTrial {
       if (progress && bound.reports_progress() && (n & 1023) == 0)
         progress->step("packers.square_tetris", static_cast<double>(n) / static_cast<double>(order_.size()));
       const PackChart& c = chart(n);
-      packing::place_on_pages(pages_, [&] { return PageState(width_, s_.max_page_size); },
-                              [&](size_t p) { return try_page(n, p, bound); }, "packers.square_tetris", c.id, width_);
+      if (n < replay_n_)
+        replay_outline(c, (*replay_)[n], bound);
+      else
+        packing::place_on_pages(pages_, [&] { return PageState(width_, s_.max_page_size); },
+                                [&](size_t p) { return try_page(n, p, bound); }, "packers.square_tetris", c.id, width_);
       if (areas) areas->push_back(pages_.size() > 1 ? std::numeric_limits<double>::infinity() : bound.area(s_));
       // A better single-page width was already found: this width cannot beat it (pages only grow).
       if (bound.hopeless(pages_.size(), s_)) {
@@ -782,6 +797,18 @@ class TetrisTrial {
     return true;
   }
 
+  /// 3 (replayed). Tail chart c at placement p of page 0 (replay), without searching.
+  void replay_outline(const PackChart& c, const Placement& p, packing::TrialBound& bound) {
+    if (pages_.empty()) pages_.emplace_back(width_, s_.max_page_size);
+    if (boxes_.empty()) boxes_.resize(1);
+    if (rasters_.empty()) rasters_.emplace_back(width_, s_.max_page_size, min_run_);
+    const int lo = s_.gutter / 2;
+    rasters_[0].fill_mask(profiles_[static_cast<size_t>(c.id)][static_cast<size_t>(p.q)], p.x - lo, p.y - lo);
+    r_.placements[static_cast<size_t>(c.id)] = p;
+    ++r_.outline_drops;
+    bound.placed(c, p, s_);
+  }
+
   /// 3'. A chart of a tail too large for the outline search, dropped on the horizon of page p
   /// above the rectangles (packers.tetris's drop).
   bool drop(const PackChart& c, size_t p, int& best_q, Rect& at) {
@@ -811,6 +838,8 @@ class TetrisTrial {
   int width_;
   std::vector<int> suffix_min_;
   int min_run_ = INT_MAX;
+  const std::vector<Placement>* replay_ = nullptr;  ///< placements of the first replay_n_ charts
+  size_t replay_n_ = 0;
   PackResult r_;
   std::vector<PageState> pages_;
   std::vector<RasterPage> rasters_;          ///< the pages' occupancy once the tail starts
@@ -823,13 +852,16 @@ class TetrisTrial {
 /// or, when `drops` is not empty (a tail too large for that search), dropped on the horizon above
 /// the rectangles as packers.tetris drops charts, with `drops` (column profiles per turn) per chart id.
 /// progress: the context the set's first trial reports progress to, or null. areas: as for
-/// TetrisTrial::run.
+/// TetrisTrial::run. replay, replayed: as for TetrisTrial::replay (null: none).
 PackResult pack_square_tetris(const PackInput& in, const CommonSettings& s, const std::vector<int>& order,
                               size_t tail, const std::vector<std::vector<RunMask>>& profiles,
                               const std::vector<std::vector<packing::Profile>>& drops, int width,
                               packing::TrialBound& bound, const StageContext* progress,
-                              std::vector<double>* areas = nullptr) {
-  return TetrisTrial(in, s, order, tail, profiles, drops, width).run(bound, progress, areas);
+                              std::vector<double>* areas = nullptr, const std::vector<Placement>* replay = nullptr,
+                              size_t replayed = 0) {
+  TetrisTrial t(in, s, order, tail, profiles, drops, width);
+  if (replay) t.replay(*replay, replayed);
+  return t.run(bound, progress, areas);
 }
 
 /// The width trials of a packing (every tail order and page width): page 0's area after each chart
@@ -842,7 +874,11 @@ struct TrialLog {
   std::mutex mutex;
   std::map<std::pair<std::string, int>, std::vector<double>> areas;  ///< (tail order, page width) -> areas
   std::map<std::string, std::vector<int>> orders;                    ///< tail order name -> the order packed
-  size_t skipped = 0;  ///< trials this packing skipped as bound to stop (angle search)
+  /// (tail order, page width) -> the placements of the charts placed, in order (outline tails
+  /// without rectangles: TetrisTrial::replay)
+  std::map<std::pair<std::string, int>, std::vector<Placement>> placed;
+  size_t skipped = 0;   ///< trials this packing skipped as bound to stop (angle search)
+  size_t replayed = 0;  ///< charts its trials took from another packing's trial (TetrisTrial::replay)
 };
 
 class SquareTetris : public Packer {
@@ -1325,33 +1361,91 @@ class SquareTetris : public Packer {
     return smallest_side_from(p.in, o, k, s) == smallest_side_from(inc.in, io->second, k, s) ? k : 0;
   }
 
+  /// Whether p's width trials log their placements (TetrisTrial::replay applies): an outline tail
+  /// with no rectangles.
+  static bool replays(const Packed& p) { return p.plan.rects == 0 && p.plan.drops.empty(); }
+
+  /// The placements p's width trial in tail order `name` (o) at `width` may take from inc's trial of
+  /// that order and width (TetrisTrial::replay), p being inc's charts with chart `turned` turned:
+  /// inc's placements of the charts o starts with as inc's order did, up to the turned one, on page
+  /// 0, and at most up to where inc's page needed inc's page area (logged whatever the thread
+  /// count, so the count replayed is the same with any). Empty when none (no log, or not an
+  /// outline tail without rectangles).
+  static std::vector<Placement> replayable(const Packed& p, const std::string& name, const std::vector<int>& o,
+                                           int width, const Packed& inc, int turned) {
+    std::vector<Placement> out;
+    if (!replays(p) || !replays(inc)) return out;
+    std::lock_guard<std::mutex> lock(inc.log->mutex);
+    const auto placed = inc.log->placed.find({name, width});
+    const auto areas = inc.log->areas.find({name, width});
+    const auto io = inc.log->orders.find(name);
+    if (placed == inc.log->placed.end() || areas == inc.log->areas.end() || io == inc.log->orders.end() ||
+        io->second.size() != o.size())
+      return out;
+    const std::vector<double>& a = areas->second;
+    const size_t reach = static_cast<size_t>(std::find_if(a.begin(), a.end(), [&](double v) { return v >= inc.r.total_area(); }) - a.begin()) + 1;
+    for (size_t n = 0; n < placed->second.size() && n < o.size() && n < reach; ++n) {
+      if (o[n] != io->second[n] || o[n] == turned || placed->second[n].page != 0) break;
+      out.push_back(placed->second[n]);
+    }
+    return out;
+  }
+
+  /// Packs p's width trial in tail order `name` (o) at `width` (pack_square_tetris), taking the
+  /// placements `replayed` (replayable) for its first charts; logs its areas and, when replays(p),
+  /// its placements in p.log.
+  static PackResult pack_logged(const Packed& p, const CommonSettings& s, const std::string& name, const std::vector<int>& o,
+                                int width, packing::TrialBound& bound, const StageContext* progress,
+                                const std::vector<Placement>& replayed) {
+    std::vector<double> areas;
+    PackResult r = pack_square_tetris(p.in, s, o, p.plan.rects, p.plan.profiles, p.plan.drops, width, bound, progress,
+                                      &areas, &replayed, replayed.size());
+    std::vector<Placement> placed;
+    if (replays(p))
+      for (size_t n = 0; n < areas.size(); ++n) placed.push_back(r.placements[static_cast<size_t>(o[n])]);
+    std::lock_guard<std::mutex> lock(p.log->mutex);
+    p.log->areas[{name, width}] = std::move(areas);
+    if (replays(p)) p.log->placed[{name, width}] = std::move(placed);
+    p.log->replayed += replayed.size();
+    return r;
+  }
+
+  /// A lost result for p's width trial in tail order `name` at `width`, bound_to_stop after its
+  /// first k charts: logged (counted in p.log->skipped) with inc's areas and placements of them.
+  static PackResult skip_logged(const Packed& p, const std::string& name, int width, const Packed& inc, size_t k) {
+    std::vector<double> areas;
+    std::vector<Placement> placed;
+    {
+      std::lock_guard<std::mutex> lock(inc.log->mutex);
+      const std::vector<double>& a = inc.log->areas.at({name, width});
+      areas.assign(a.begin(), a.begin() + static_cast<long>(k));
+      const auto pl = inc.log->placed.find({name, width});
+      if (pl != inc.log->placed.end() && pl->second.size() >= k)
+        placed.assign(pl->second.begin(), pl->second.begin() + static_cast<long>(k));
+    }
+    PackResult r;
+    r.placements.assign(p.in.charts.size(), Placement{});
+    packing::TrialBound::lose(r, 1);
+    std::lock_guard<std::mutex> lock(p.log->mutex);
+    ++p.log->skipped;
+    p.log->areas[{name, width}] = std::move(areas);
+    if (replays(p) && placed.size() == k) p.log->placed[{name, width}] = std::move(placed);
+    return r;
+  }
+
   /// A width trial of p's plan in tail order `name` (o) (pack_widths' pack_with_width), logged in
   /// p.log; progress: as for pack_square_tetris. inc, turned: when inc is given, p is inc's charts
   /// with chart `turned` turned, packed against inc's result: a trial bound_to_stop is not packed
-  /// but returned lost (counted in p.log->skipped) and logged with inc's areas up to where it stops.
+  /// (skip_logged); the others take inc's placements of the charts before the turned one
+  /// (replayable).
   static std::function<PackResult(int, packing::TrialBound&)> trial(const Packed& p, const CommonSettings& s,
                                                                     const std::string& name, const std::vector<int>& o,
                                                                     const StageContext* progress,
                                                                     const Packed* inc = nullptr, int turned = -1) {
     return [&p, &s, &name, &o, progress, inc, turned](int width, packing::TrialBound& bound) {
-      std::vector<double> areas;
-      PackResult r;
-      if (const size_t k = inc ? bound_to_stop(p, name, o, width, *inc, turned, s) : 0) {
-        {
-          std::lock_guard<std::mutex> lock(inc->log->mutex);
-          const std::vector<double>& a = inc->log->areas.at({name, width});
-          areas.assign(a.begin(), a.begin() + static_cast<long>(k));
-        }
-        r.placements.assign(p.in.charts.size(), Placement{});
-        packing::TrialBound::lose(r, 1);
-        std::lock_guard<std::mutex> lock(p.log->mutex);
-        ++p.log->skipped;
-      } else {
-        r = pack_square_tetris(p.in, s, o, p.plan.rects, p.plan.profiles, p.plan.drops, width, bound, progress, &areas);
-      }
-      std::lock_guard<std::mutex> lock(p.log->mutex);
-      p.log->areas[{name, width}] = std::move(areas);
-      return r;
+      if (!inc) return pack_logged(p, s, name, o, width, bound, progress, {});
+      if (const size_t k = bound_to_stop(p, name, o, width, *inc, turned, s)) return skip_logged(p, name, width, *inc, k);
+      return pack_logged(p, s, name, o, width, bound, progress, replayable(p, name, o, width, *inc, turned));
     };
   }
 
@@ -1536,6 +1630,7 @@ class SquareTetris : public Packer {
     bool capped = false;  ///< a chart's candidates were skipped: angle_search_max_work reached
     size_t trials = 0;    ///< width trials of the candidate packings, packed or skipped
     size_t skipped = 0;   ///< of those, skipped as bound to stop (bound_to_stop)
+    size_t replayed = 0;  ///< chart placements the candidates' trials replayed (TetrisTrial::replay)
   };
 
   /// The charts the angle search turns in p (settings s): every free chart when the search is on
@@ -1615,15 +1710,15 @@ class SquareTetris : public Packer {
         st.work += work;
         std::vector<Packed> cands(angles.size());
         std::vector<uint8_t> wins(angles.size(), 0);  // per candidate: smaller than p
-        std::vector<std::pair<size_t, size_t>> trials(angles.size());  // per candidate: width trials, skipped
+        std::vector<std::array<size_t, 3>> trials(angles.size());  // per candidate: width trials, skipped, replayed
         parallel_for(angles.size(), [&](size_t k) {
           Packed t = repack_turned(ctx, p, s, id, angles[k]);
-          trials[k] = {t.width_trials, t.log->skipped};
+          trials[k] = {t.width_trials, t.log->skipped, t.log->replayed};
           wins[k] = packing::better_result(t.r, p.r) ? 1 : 0;
           if (wins[k]) cands[k] = std::move(t);  // memory: only the winners are kept
         });
         st.packings += angles.size();
-        for (const auto& [n, skipped] : trials) st.trials += n, st.skipped += skipped;
+        for (const auto& [n, skipped, replayed] : trials) st.trials += n, st.skipped += skipped, st.replayed += replayed;
         size_t best = angles.size();
         for (size_t k = 0; k < angles.size(); ++k)
           if (wins[k] && (best == angles.size() || packing::better_result(cands[k].r, cands[best].r))) best = k;
@@ -1701,6 +1796,7 @@ class SquareTetris : public Packer {
     rep["angle_search_capped"] = angles.capped;
     rep["angle_search_width_trials"] = angles.trials;
     rep["angle_search_width_trials_skipped"] = angles.skipped;
+    rep["angle_search_placements_replayed"] = angles.replayed;
     rep["angle_search_charts_turned"] = best.turned;
     rep["angle_search_megapixels_before"] = angles.before / 1e6;
     rep["hole_fills"] = r.hole_fills;

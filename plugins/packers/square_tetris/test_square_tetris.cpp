@@ -770,9 +770,11 @@ TEST(PackersSquareTetris, TheAngleSearchNeverEndsLargerThanWithoutItWhenTheFreeT
 TEST(PackersSquareTetris, AngleSearchSkipsTheWidthTrialsBoundToStopAsBefore) {
   // Two exact right triangles (legs 300 and 240 texels) and a small free V (two 60 x 6 arms 30
   // degrees apart, turned by 0.3 rad by a "merger"): the V comes last in every tail order. A width
-  // trial of the packing that stopped as hopeless before the V was placed stops the same way when
-  // only the V is turned (same triangles, same width, same page when it stopped), so the search
-  // skips it; the result is the one of packing every candidate's trials in full.
+  // trial of the packing whose page needed the kept page's area before the V was placed stops the
+  // same way when only the V is turned (same triangles, same width), so the search skips it; the
+  // other trials take the triangles' placements from the kept packing's trial of the same order and
+  // width (replayed: every chart is in the outline tail) and search the V's only. The result is the
+  // one of packing every candidate's trials in full.
   const std::vector<std::vector<Vec2>> polys = {
       v_polygon(60, 6, 30, {700, 700}), {{10, 10}, {310, 10}, {10, 310}}, {{400, 10}, {640, 10}, {400, 250}}};
   const json opts = {{"page_multiple", 4}, {"width_trials", 8}};
@@ -781,8 +783,11 @@ TEST(PackersSquareTetris, AngleSearchSkipsTheWidthTrialsBoundToStopAsBefore) {
   const int trials = on->report.at("angle_search_width_trials").get<int>();
   const int skipped = on->report.at("angle_search_width_trials_skipped").get<int>();
   EXPECT_EQ(on->report.at("angle_search_packings").get<int>(), 11);
+  const int replayed = on->report.at("angle_search_placements_replayed").get<int>();
   EXPECT_GT(skipped, 0);
   EXPECT_LT(skipped, trials);
+  EXPECT_GT(replayed, 0);
+  EXPECT_LE(replayed, 2 * (trials - skipped));  // at most the two triangles per trial packed
   json off_opts = opts;
   off_opts["angle_search_max_charts"] = 0;
   auto off = run_packer(kName, polygon_mesh(polys, 1024), off_opts, turn_chart0(0.3));
@@ -794,6 +799,7 @@ TEST(PackersSquareTetris, AngleSearchSkipsTheWidthTrialsBoundToStopAsBefore) {
     auto t = run_packer(kName, polygon_mesh(polys, 1024), opts, turn_chart0(0.3));
     EXPECT_EQ(t->ctx.layout.wedge_uv, on->ctx.layout.wedge_uv) << threads << " threads";
     EXPECT_EQ(t->report.at("angle_search_width_trials_skipped").get<int>(), skipped) << threads << " threads";
+    EXPECT_EQ(t->report.at("angle_search_placements_replayed").get<int>(), replayed) << threads << " threads";
   }
   set_thread_count(0);
 }
