@@ -645,6 +645,20 @@ constexpr double kGauss[2] = {0.21132486540518713, 0.78867513459481287};
 /// Tikhonov weight towards the sampled value, relative to a fully covered texel's weight (16/9).
 constexpr float kFitRegularisation = 0.02f;
 
+/// One unknown's channels in the fit's vectors, padded to four lanes (the lanes from C on stay 0):
+/// one SSE register, so the system's products run on every channel at once (GCC's vector types).
+/// Each lane's arithmetic is the scalar code's, operation for operation, and lanes never mix, so
+/// the fitted texels are those of the channel-by-channel code, byte for byte.
+using Lanes = float __attribute__((vector_size(16)));
+
+/// The C channels of a texel as lanes (the others 0).
+template <int C>
+Lanes texel_lanes(const uint8_t* p) {
+  Lanes v = {};
+  for (int c = 0; c < C; ++c) v[c] = static_cast<float>(p[c]);
+  return v;
+}
+
 /// Sum over the samples present in `mask` (bit 2b + a: Gauss point (a, b) of the cell) of w w^T,
 /// w = bilinear weights of the cell's corners (index 2 dy + dx).
 std::array<float, 16> cell_matrix(int mask) {
@@ -758,13 +772,61 @@ bool row_cells(const std::array<Vec2, 3>& g, double q, long long& mlo, long long
   return mlo <= mhi;
 }
 
+/// The point-in-face test of add_face_to_rhs: (px, py) is inside face g when, for each edge (a, b)
+/// of g, sgn ((b - a).x (py - a.y) - (b - a).y (px - a.x)) >= 0. The parts that depend on the row
+/// (py) or the column (px) alone are computed once per row or cell; each point's value is the one
+/// of the whole expression (same operations on the same operands).
+struct InsideTest {
+  double ax[3], ay[3], ex[3], ey[3], sgn;
+
+  InsideTest(const std::array<Vec2, 3>& g, double orientation) : sgn(orientation) {
+    for (size_t k = 0; k < 3; ++k) {
+      const Vec2& a = g[k];
+      const Vec2& b = g[(k + 1) % 3];
+      ax[k] = a.x();
+      ay[k] = a.y();
+      ex[k] = b.x() - a.x();
+      ey[k] = b.y() - a.y();
+    }
+  }
+  /// The row parts at py: (b - a).x (py - a.y) per edge.
+  void row(double py, double t[3]) const {
+    for (int k = 0; k < 3; ++k) t[k] = ex[k] * (py - ay[k]);
+  }
+  /// The column parts at px: (b - a).y (px - a.x) per edge.
+  void column(double px, double t[3]) const {
+    for (int k = 0; k < 3; ++k) t[k] = ey[k] * (px - ax[k]);
+  }
+  bool at(const double ty[3], const double tx[3]) const {
+    for (int k = 0; k < 3; ++k)
+      if (sgn * (ty[k] - tx[k]) < 0) return false;
+    return true;
+  }
+};
+
+/// weights[2 b + a][k]: the bilinear weight of a cell's corner k (2 dy + dx) at its Gauss point
+/// (a, b), as float.
+const std::array<std::array<float, 4>, 4>& gauss_weights() {
+  static const std::array<std::array<float, 4>, 4> w = [] {
+    std::array<std::array<float, 4>, 4> t{};
+    for (int b = 0; b < 2; ++b)
+      for (int a = 0; a < 2; ++a) {
+        const double wx[2] = {1 - kGauss[a], kGauss[a]}, wy[2] = {1 - kGauss[b], kGauss[b]};
+        for (int k = 0; k < 4; ++k)
+          t[static_cast<size_t>(2 * b + a)][static_cast<size_t>(k)] = static_cast<float>(wx[k & 1] * wy[k >> 1]);
+      }
+    return t;
+  }();
+  return w;
+}
+
 /// Adds face `job`'s share of the fit's right-hand side: at each Gauss point of the window's cells
 /// inside the face (and not yet taken by an earlier face: the point's bit in cells.mask), the input
 /// read bilinearly through the face map, weighted by the bilinear weights of the cell's unknown
 /// corners. Degenerate faces and faces missing the window add nothing.
 template <int C>
 void add_face_to_rhs(const FaceJob& job, const std::vector<const Image*>& inputs, const FitUnknowns& unknowns,
-                     FitCells& cells, std::vector<float>& rhs) {
+                     FitCells& cells, std::vector<Lanes>& rhs) {
   const int H = cells.H;
   const auto& o = job.out;
   // Corners in grid coordinates; skip faces whose box misses the window's cells.
@@ -787,19 +849,14 @@ void add_face_to_rhs(const FaceJob& job, const std::vector<const Image*>& inputs
   src.w = in.width;
   src.h = in.height;
   src.repeat = job.repeat;
-  const double sgn = det > 0 ? -1.0 : 1.0;  // the y flip reverses the orientation
-  auto inside = [&](double px, double py) {
-    for (int k = 0; k < 3; ++k) {
-      const Vec2& a = g[static_cast<size_t>(k)];
-      const Vec2& b = g[static_cast<size_t>((k + 1) % 3)];
-      if (sgn * ((b.x() - a.x()) * (py - a.y()) - (b.y() - a.y()) * (px - a.x())) < 0) return false;
-    }
-    return true;
-  };
+  const InsideTest inside(g, det > 0 ? -1.0 : 1.0);  // the y flip reverses the orientation
+  const std::array<std::array<float, 4>, 4>& weights = gauss_weights();
   const double Hi = in.height;
   for (long long q = q0; q <= q1; ++q) {
     long long mlo = m0, mhi = m1;
     if (!row_cells(g, static_cast<double>(q), mlo, mhi)) continue;
+    double ty[2][3];
+    for (int b = 0; b < 2; ++b) inside.row(static_cast<double>(q) + kGauss[b], ty[b]);
     for (long long m = mlo; m <= mhi; ++m) {
       int ids[4];
       bool touches = false;
@@ -811,54 +868,56 @@ void add_face_to_rhs(const FaceJob& job, const std::vector<const Image*>& inputs
       }
       if (!touches) continue;
       uint8_t& cm = cells.mask[static_cast<size_t>(q - cells.cq0) * cells.cw + static_cast<size_t>(m - cells.cm0)];
+      if (cm == 15) continue;  // every point taken by earlier faces
+      double tx[2][3];
+      for (int a = 0; a < 2; ++a) inside.column(static_cast<double>(m) + kGauss[a], tx[a]);
       for (int b = 0; b < 2; ++b)
         for (int a = 0; a < 2; ++a) {
           const int bit = 1 << (2 * b + a);
           const double px = static_cast<double>(m) + kGauss[a], py = static_cast<double>(q) + kGauss[b];
-          if ((cm & bit) || !inside(px, py)) continue;
+          if ((cm & bit) || !inside.at(ty[b], tx[a])) continue;
           cm = static_cast<uint8_t>(cm | bit);
           const double ox = px + 0.5, oy = H - py - 0.5;
           const double u = af.A00 * ox + af.A01 * oy + af.t0, v = af.A10 * ox + af.A11 * oy + af.t1;
           float target[C];
           src.bilinear_f(u - 0.5, Hi - v - 0.5, target);
-          const double wx[2] = {1 - kGauss[a], kGauss[a]}, wy[2] = {1 - kGauss[b], kGauss[b]};
-          for (int k = 0; k < 4; ++k) {
-            if (ids[k] < 0) continue;
-            const float w = static_cast<float>(wx[k & 1] * wy[k >> 1]);
-            for (int c = 0; c < C; ++c) rhs[static_cast<size_t>(ids[k]) * C + static_cast<size_t>(c)] += w * target[c];
-          }
+          Lanes t = {};
+          for (int c = 0; c < C; ++c) t[c] = target[c];
+          for (int k = 0; k < 4; ++k)
+            if (ids[k] >= 0) rhs[static_cast<size_t>(ids[k])] += weights[static_cast<size_t>(2 * b + a)][static_cast<size_t>(k)] * t;
         }
     }
   }
 }
 
 /// The fit's normal matrix K = sum over active cells of G^T M G + lambda I, on the fitted texels.
+/// Its vectors (x, right-hand side, CG's) hold U + 1 Lanes: entry U is the fixed corners' slot,
+/// zero in the vectors K is applied to (x, p), and what K adds there is never read.
 struct FitSystem {
   struct Cell {
-    int id[4];     ///< corner unknowns (-1: a fixed texel)
+    int id[4];     ///< corner unknowns (U: a fixed texel)
     uint8_t mask;  ///< Gauss points covered: selects the cell's matrix
   };
   std::array<std::array<float, 16>, 16> mats;  ///< cell_matrix of every mask
+  std::array<std::array<Lanes, 16>, 16> lane_mats;  ///< mats, each entry in every lane
   std::vector<Cell> cells;
-  std::vector<float> diag;  ///< K's diagonal (the Jacobi preconditioner)
+  std::vector<float> diag;  ///< K's diagonal (the Jacobi preconditioner), U entries
   float lambda = 0;
+  size_t unknowns = 0;  ///< U
 
-  /// out = K v (both U * C floats).
-  template <int C>
-  void apply(const std::vector<float>& v, std::vector<float>& out) const {
-    for (size_t i = 0; i < out.size(); ++i) out[i] = lambda * v[i];
+  /// out = K v (U + 1 entries each; v[U] is 0). Per unknown, the cells' shares are added in cell
+  /// order and corner order, as the channel-by-channel code did; a fixed corner reads v[U] (0) and
+  /// its share goes to out[U] instead of being skipped.
+  void apply(const std::vector<Lanes>& v, std::vector<Lanes>& out) const {
+    for (size_t u = 0; u < unknowns; ++u) out[u] = lambda * v[u];
     for (const Cell& cell : cells) {
-      const std::array<float, 16>& M = mats[cell.mask];
-      float loc[4][C];
-      for (int k = 0; k < 4; ++k)
-        for (int c = 0; c < C; ++c)
-          loc[k][c] = cell.id[k] >= 0 ? v[static_cast<size_t>(cell.id[k]) * C + static_cast<size_t>(c)] : 0.f;
+      const std::array<Lanes, 16>& M = lane_mats[cell.mask];
+      const Lanes loc[4] = {v[static_cast<size_t>(cell.id[0])], v[static_cast<size_t>(cell.id[1])],
+                            v[static_cast<size_t>(cell.id[2])], v[static_cast<size_t>(cell.id[3])]};
       for (int k = 0; k < 4; ++k) {
-        if (cell.id[k] < 0) continue;
-        float acc[C] = {};
-        for (int l = 0; l < 4; ++l)
-          for (int c = 0; c < C; ++c) acc[c] += M[static_cast<size_t>(4 * k + l)] * loc[l][c];
-        for (int c = 0; c < C; ++c) out[static_cast<size_t>(cell.id[k]) * C + static_cast<size_t>(c)] += acc[c];
+        Lanes acc = {};
+        for (int l = 0; l < 4; ++l) acc += M[static_cast<size_t>(4 * k + l)] * loc[l];
+        out[static_cast<size_t>(cell.id[k])] += acc;
       }
     }
   }
@@ -867,10 +926,15 @@ struct FitSystem {
 /// Builds the system of the window's active cells: each cell's corner unknowns and matrix, K's
 /// diagonal, and the fixed corners' share moved to the right-hand side (rhs -= M f).
 template <int C>
-FitSystem assemble_system(const Canvas& cv, const FitUnknowns& unknowns, const FitCells& cells, std::vector<float>& rhs) {
+FitSystem assemble_system(const Canvas& cv, const FitUnknowns& unknowns, const FitCells& cells, std::vector<Lanes>& rhs) {
   FitSystem sys;
-  for (int mask = 0; mask < 16; ++mask) sys.mats[static_cast<size_t>(mask)] = cell_matrix(mask);
-  sys.diag.assign(unknowns.texel_of.size(), 0.f);
+  for (size_t mask = 0; mask < 16; ++mask) {
+    sys.mats[mask] = cell_matrix(static_cast<int>(mask));
+    for (size_t i = 0; i < 16; ++i) sys.lane_mats[mask][i] = Lanes{} + sys.mats[mask][i];
+  }
+  sys.unknowns = unknowns.texel_of.size();
+  sys.diag.assign(sys.unknowns, 0.f);
+  sys.cells.reserve(cells.mask.size() - static_cast<size_t>(std::count(cells.mask.begin(), cells.mask.end(), 0)));
   const uint8_t* px = cv.img->pixels.data();
   for (size_t ci = 0; ci < cells.mask.size(); ++ci) {
     if (!cells.mask[ci]) continue;
@@ -878,21 +942,22 @@ FitSystem assemble_system(const Canvas& cv, const FitUnknowns& unknowns, const F
     FitSystem::Cell cell;
     cell.mask = cells.mask[ci];
     size_t cidx[4];
+    int id[4];
     for (int k = 0; k < 4; ++k) {
       int x, y;
       cells.corner_xy(m, q, k, x, y);
       cidx[k] = cv.index(x, y);
-      cell.id[k] = unknowns.at(x, y);
+      id[k] = unknowns.at(x, y);
+      cell.id[k] = id[k] >= 0 ? id[k] : static_cast<int>(sys.unknowns);
     }
     const std::array<float, 16>& M = sys.mats[cell.mask];
     for (int k = 0; k < 4; ++k) {
-      if (cell.id[k] < 0) continue;
+      if (id[k] < 0) continue;
       for (int l = 0; l < 4; ++l) {
         const float mkl = M[static_cast<size_t>(4 * k + l)];
-        if (cell.id[l] == cell.id[k]) sys.diag[static_cast<size_t>(cell.id[k])] += mkl;
-        if (cell.id[l] >= 0) continue;
-        const uint8_t* f = px + cidx[l] * C;
-        for (int c = 0; c < C; ++c) rhs[static_cast<size_t>(cell.id[k]) * C + static_cast<size_t>(c)] -= mkl * static_cast<float>(f[c]);
+        if (id[l] == id[k]) sys.diag[static_cast<size_t>(id[k])] += mkl;
+        if (id[l] >= 0) continue;
+        rhs[static_cast<size_t>(id[k])] -= mkl * texel_lanes<C>(px + cidx[l] * C);
       }
     }
     sys.cells.push_back(cell);
@@ -900,40 +965,51 @@ FitSystem assemble_system(const Canvas& cv, const FitUnknowns& unknowns, const F
   return sys;
 }
 
+/// The sum over the first n entries of a and b, lanes below C, of a b in double, in the order of
+/// the channel-by-channel vectors (entry, then lane).
+template <int C>
+double dot(const std::vector<Lanes>& a, const std::vector<Lanes>& b, size_t n) {
+  double s = 0;
+  for (size_t u = 0; u < n; ++u)
+    for (int c = 0; c < C; ++c) s += static_cast<double>(a[u][c]) * b[u][c];
+  return s;
+}
+
 /// Solves K x = rhs by Jacobi-preconditioned conjugate gradients from the start value x, for at
 /// most `iterations` steps or until the residual's norm falls to 1e-4 of its start. rhs is used
-/// as the residual (its content is lost).
+/// as the residual (its content is lost). x and rhs: U + 1 entries, x[U] = 0.
 template <int C>
-void solve_fit(const FitSystem& sys, std::vector<float>& rhs, std::vector<float>& x, int iterations) {
-  const size_t n = x.size();
+void solve_fit(const FitSystem& sys, std::vector<Lanes>& rhs, std::vector<Lanes>& x, int iterations) {
+  const size_t U = sys.unknowns;
   const std::vector<float>& diag = sys.diag;
-  std::vector<float>& r = rhs;
-  std::vector<float> p(n), Kp(n);
-  sys.apply<C>(x, Kp);
-  double rz = 0, r0 = 0;
-  for (size_t i = 0; i < r.size(); ++i) {
-    r[i] -= Kp[i];
-    p[i] = r[i] / diag[i / C];
-    rz += static_cast<double>(r[i]) * p[i];
-    r0 += static_cast<double>(r[i]) * r[i];
+  std::vector<Lanes>& r = rhs;
+  std::vector<Lanes> p(U + 1, Lanes{}), Kp(U + 1);  // p[U] stays 0
+  sys.apply(x, Kp);
+  for (size_t u = 0; u < U; ++u) {
+    r[u] -= Kp[u];
+    p[u] = r[u] / diag[u];
   }
+  double rz = dot<C>(r, p, U);
+  const double r0 = dot<C>(r, r, U);
   for (int it = 0; it < iterations && rz > 0; ++it) {
-    sys.apply<C>(p, Kp);
-    double pKp = 0;
-    for (size_t i = 0; i < p.size(); ++i) pKp += static_cast<double>(p[i]) * Kp[i];
+    sys.apply(p, Kp);
+    const double pKp = dot<C>(p, Kp, U);
     if (!(pKp > 0)) break;
     const float alpha = static_cast<float>(rz / pKp);
     double rz_new = 0, rr = 0;
-    for (size_t i = 0; i < r.size(); ++i) {
-      x[i] += alpha * p[i];
-      r[i] -= alpha * Kp[i];
-      rz_new += static_cast<double>(r[i]) * (r[i] / diag[i / C]);
-      rr += static_cast<double>(r[i]) * r[i];
+    for (size_t u = 0; u < U; ++u) {
+      x[u] += alpha * p[u];
+      r[u] -= alpha * Kp[u];
+      const Lanes z = r[u] / diag[u];
+      for (int c = 0; c < C; ++c) {
+        rz_new += static_cast<double>(r[u][c]) * z[c];
+        rr += static_cast<double>(r[u][c]) * r[u][c];
+      }
     }
     if (rr <= 1e-8 * r0) break;
     const float beta = static_cast<float>(rz_new / rz);
     rz = rz_new;
-    for (size_t i = 0; i < p.size(); ++i) p[i] = r[i] / diag[i / C] + beta * p[i];
+    for (size_t u = 0; u < U; ++u) p[u] = r[u] / diag[u] + beta * p[u];
   }
 }
 
@@ -947,34 +1023,26 @@ size_t fit_window(const std::vector<int>& faces, const JobSource& source, const 
   const size_t U = unknowns.texel_of.size();
   if (U == 0) return 0;
   FitCells cells(cv.w, cv.h, X0, Y0, X1, Y1);
-  std::vector<float> rhs(U * C, 0.f);
+  std::vector<Lanes> rhs(U + 1, Lanes{});
   for (const int f : faces) add_face_to_rhs<C>(source.job(f), inputs, unknowns, cells, rhs);
   // Fixed corners move to the right-hand side; the Tikhonov term pulls towards the sampled value.
   FitSystem sys = assemble_system<C>(cv, unknowns, cells, rhs);
   cells.mask = std::vector<uint8_t>();
   sys.lambda = kFitRegularisation * 16.f / 9.f;
   const uint8_t* px = cv.img->pixels.data();
-  std::vector<float> x(U * C);
-  for (size_t u = 0; u < U; ++u)
-    for (int c = 0; c < C; ++c) {
-      x[u * C + static_cast<size_t>(c)] = static_cast<float>(px[unknowns.texel_of[u] * C + static_cast<size_t>(c)]);
-      rhs[u * C + static_cast<size_t>(c)] += sys.lambda * x[u * C + static_cast<size_t>(c)];
-    }
+  std::vector<Lanes> x(U + 1, Lanes{});
+  for (size_t u = 0; u < U; ++u) {
+    x[u] = texel_lanes<C>(px + unknowns.texel_of[u] * C);
+    rhs[u] += sys.lambda * x[u];
+  }
   for (float& d : sys.diag) d += sys.lambda;
   solve_fit<C>(sys, rhs, x, iterations);
   uint8_t* out = cv.img->pixels.data();
   for (size_t u = 0; u < U; ++u)
-    for (int c = 0; c < C; ++c) out[unknowns.texel_of[u] * C + static_cast<size_t>(c)] = to_byte(x[u * C + static_cast<size_t>(c)]);
+    for (int c = 0; c < C; ++c) out[unknowns.texel_of[u] * C + static_cast<size_t>(c)] = to_byte(x[u][c]);
   return U;
 }
 
-/// The least-squares fit of every fitted texel of the page, window by window (kFitWindow), on up to
-/// `threads` threads with the result of the raster order. A window writes only its own texels and
-/// reads them and a ring one texel wide around it, so window (i, j) (row i, column j) must see
-/// (i-1, j+1), (i-1, j), (i-1, j-1) and (i, j-1) fitted and (i, j+1), (i+1, *) not yet fitted.
-/// Wavefronts t = 2 i + j satisfy that: (i-1, j+1) is on t-1, (i+1, j-1) on t+1, and windows of one
-/// wavefront are two columns apart, so their rings never meet. The texels are those of the raster
-/// order, byte for byte, for any thread count.
 /// The page's faces (in face order) whose grid box may reach the cells of each fit window (index
 /// row * nx + column): a superset of the faces that add to the window's right-hand side (the test in
 /// add_face_to_rhs is exact), without degenerate faces (which add nothing). Each window then visits
@@ -1241,20 +1309,38 @@ void harmonic_fill(FillBlock& b) {
     }
   float mean[4];
   block_mean(b, true, mean);
-  for (int i = 0; i < U; ++i) std::copy(mean, mean + C, &b.v[texel[i] * C]);
+  // note: the sweeps on all channels at once (Lanes: each lane's sums and quotients are the
+  // channel-by-channel code's, in the same order).
+  Lanes v[kMax];
+  for (int t = 0; t < b.w * b.h; ++t) {
+    v[t] = Lanes{};
+    for (int c = 0; c < C; ++c) v[t][c] = b.v[t * C + c];
+  }
+  Lanes start = {};
+  for (int c = 0; c < C; ++c) start[c] = mean[c];
+  for (int i = 0; i < U; ++i) v[texel[i]] = start;
   for (int sweep = 0; sweep < kHarmonicSweeps; ++sweep)
     for (int i = 0; i < U; ++i) {
-      float acc[C] = {};
-      for (int k = 0; k < count[i]; ++k)
-        for (int c = 0; c < C; ++c) acc[c] += b.v[nb[i][k] * C + c];
-      for (int c = 0; c < C; ++c) b.v[texel[i] * C + c] = acc[c] / static_cast<float>(count[i]);
+      Lanes acc = {};
+      for (int k = 0; k < count[i]; ++k) acc += v[nb[i][k]];
+      v[texel[i]] = acc / static_cast<float>(count[i]);
     }
+  for (int i = 0; i < U; ++i)
+    for (int c = 0; c < C; ++c) b.v[texel[i] * C + c] = v[texel[i]][c];
 }
 
 /// Fills block (bx, by) of the page (see fill_blocks).
 void fill_block(Image& img, const std::vector<uint8_t>& state, int bx, int by) {
+  // note: most blocks are fully written: told by their state alone, before the block's values are
+  // read (and its 1.3 KB zeroed).
+  const int w = std::min(kFillBlock, img.width - bx), h = std::min(kFillBlock, img.height - by);
+  bool full = true;
+  for (int y = 0; y < h && full; ++y) {
+    const uint8_t* row = &state[static_cast<size_t>(by + y) * static_cast<size_t>(img.width) + static_cast<size_t>(bx)];
+    for (int x = 0; x < w; ++x) full = full && row[x] != 0;
+  }
+  if (full) return;
   FillBlock b = read_block(img, state, bx, by);
-  if (b.num_known == b.w * b.h) return;
   if (b.num_known == 0) {
     float mean[4];
     block_mean(b, false, mean);
