@@ -1,7 +1,10 @@
 // The ModelFormat interface: dispatch by input, the OBJ format's round trip through it, page
 // encodings (JPEG quality from the quantisation tables) and the default output page format.
 #include "texdefrag/io/jpeg_quality.h"
+#include "texdefrag/io/gltf_format.h"
 #include "texdefrag/io/model_format.h"
+#include "texdefrag/io/obj_format.h"
+#include "texdefrag/io/osgb.h"
 #include "texdefrag/io/obj.h"
 #include "texdefrag/testing/fixtures.h"
 #include "texdefrag/util/parallel.h"
@@ -59,6 +62,67 @@ TEST(ModelFormat, DispatchesByInput) {
   EXPECT_THROW(format_for_input(dir + "/missing.obj"), FormatError);
   ASSERT_NE(find_model_format("obj"), nullptr);
   EXPECT_EQ(find_model_format("nope"), nullptr);
+}
+
+/// Four textured faces on one page: a right triangle, a sliver whose apex lies 1e-9 above its
+/// base at v = 0.5 (a float32 cannot tell 0.5 + 1e-9 from 0.5: the sliver collapses when stored),
+/// a face of zero UV area, and one clockwise.
+TexturedMesh four_faces_for_read_back() {
+  TexturedMesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  m.texcoords = {{0.1, 0.1}, {0.3, 0.1}, {0.1, 0.3},               // right triangle
+                 {0.5, 0.5}, {0.75, 0.5}, {0.6, 0.5 + 1e-9},       // sliver
+                 {0.2, 0.7}, {0.3, 0.7}, {0.4, 0.7},               // zero area
+                 {0.8, 0.8}, {0.8, 0.9}, {0.9, 0.8}};              // clockwise
+  for (int k = 0; k < 4; ++k) {
+    Face f;
+    f.v = {0, 1, 2};
+    f.vt = {3 * k, 3 * k + 1, 3 * k + 2};
+    m.faces.push_back(f);
+  }
+  return m;
+}
+
+TEST(ModelFormat, FacesTurnedByTheStoredTexcoordsAreCounted) {
+  const TexturedMesh in = four_faces_for_read_back();
+  TexturedMesh m = in;
+  EXPECT_EQ(faces_turned_by(in, m, [](const Vec2& t) { return t; }), 0u);
+  // OBJ prints doubles exactly: nothing turns.
+  EXPECT_EQ(faces_turned_by(in, m, ObjFormat().texcoord_read_back({})), 0u);
+  // OSGB and glTF store float32: the sliver collapses (counted), the zero-area face is not counted.
+  EXPECT_EQ(faces_turned_by(in, m, OsgbFormat().texcoord_read_back({})), 1u);
+  EXPECT_EQ(faces_turned_by(in, m, GltfFormat().texcoord_read_back({})), 1u);
+  // A mirror of every coordinate turns the two faces of nonzero area that survive rounding too.
+  EXPECT_EQ(faces_turned_by(in, m, [](const Vec2& t) { return Vec2(-t.x(), t.y()); }), 3u);
+  // A face of zero UV area in the input is not counted, whatever the output makes of it: here the
+  // input's sliver is flattened and the output keeps it thin (the sliver again).
+  TexturedMesh flat_in = in;
+  flat_in.texcoords[5] = {0.6, 0.5};
+  EXPECT_EQ(faces_turned_by(flat_in, m, OsgbFormat().texcoord_read_back({})), 0u);
+}
+
+TEST(ModelFormat, StoredAsFloat32Rounds) {
+  // Two values side by side, as the read-backs round them (the pair GCC 12.2 -O3 folded away).
+  const Vec2 t(0.6, 0.5 + 1e-9);
+  const Vec2 r(stored_as_float32(t.x()), stored_as_float32(t.y()));
+  EXPECT_EQ(r.x(), static_cast<double>(0.6f));
+  EXPECT_NE(r.x(), 0.6);
+  EXPECT_EQ(r.y(), 0.5);
+}
+
+TEST(ModelFormat, GltfStoresTexcoordsAsFloatsWithVFromTheTop) {
+  const TexcoordReadBack rb = GltfFormat().texcoord_read_back({});
+  ASSERT_TRUE(rb);
+  // 1 - 0.3 = 0.7 is stored as the float nearest 0.7; read back, 1 - that.
+  const Vec2 t = rb(Vec2(0.1, 0.3));
+  EXPECT_EQ(t.x(), static_cast<double>(0.1f));
+  EXPECT_EQ(t.y(), 1.0 - static_cast<double>(0.7f));
+  // Draco-quantised output: the grid is the encoder's, so the format does not say.
+  PageWriteOptions po;
+  po.output_options = {{"draco", "quantized"}};
+  EXPECT_FALSE(GltfFormat().texcoord_read_back(po));
+  po.output_options = {{"draco", "lossless"}};
+  EXPECT_TRUE(GltfFormat().texcoord_read_back(po));
 }
 
 TEST(JpegQuality, RecoversTheEncoderQuality) {

@@ -199,6 +199,7 @@ TEST(Osgb, RoundTripKeepsFacesPositionsAndStructure) {
   ASSERT_TRUE(fs::exists(written));
   EXPECT_EQ(report["stages"]["write"]["format"], "osgb");
   EXPECT_EQ(report["stages"]["write"]["geometries_split"], 0);
+  EXPECT_EQ(report["stages"]["write"]["faces_turned_as_written"], 0);
   const LoadedModel in = OsgbFormat().read(s.tile);
   const LoadedModel back = OsgbFormat().read(written);
   osgb_test::expect_same_positions(in.mesh, back.mesh, written);

@@ -97,6 +97,17 @@ LoadedModel GltfFormat::read_group(const std::vector<GltfInput>& inputs, const s
   }
 }
 
+TexcoordReadBack GltfFormat::texcoord_read_back(const PageWriteOptions& page_options) const {
+  DracoOutput draco = write_options.draco;
+  const json& oo = page_options.output_options;
+  if (oo.contains("draco")) draco = oo["draco"].get<std::string>() == "quantized" ? DracoOutput::Quantized : DracoOutput::None;
+  if (draco == DracoOutput::Quantized) return {};
+  // note: the writer stores (u, 1 - v) as floats; a reader turns the second back with 1 - v.
+  return [](const Vec2& t) {
+    return Vec2(stored_as_float32(t.x()), 1.0 - stored_as_float32(1.0 - t.y()));
+  };
+}
+
 GltfOutput GltfFormat::build(const LoadedModel& in, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
                              const std::vector<std::string>& names, const PageWriteOptions& page_options) const {
   const auto* src = dynamic_cast<const GltfSource*>(in.source.get());

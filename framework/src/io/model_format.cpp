@@ -18,7 +18,40 @@ namespace fs = std::filesystem;
 namespace texdefrag {
 namespace {
 
+/// Twice the signed area of a face's UV triangle from its texture coordinates mapped by `uv`.
+template <class UV>
+double uv_turn(const TexturedMesh& m, const Face& f, const UV& uv) {
+  const Vec2 a = uv(m.texcoords[static_cast<size_t>(f.vt[0])]);
+  const Vec2 b = uv(m.texcoords[static_cast<size_t>(f.vt[1])]);
+  const Vec2 c = uv(m.texcoords[static_cast<size_t>(f.vt[2])]);
+  return (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+}
+
 }  // namespace
+
+TexcoordReadBack ModelFormat::texcoord_read_back(const PageWriteOptions& /*page_options*/) const {
+  return [](const Vec2& t) { return t; };
+}
+
+double stored_as_float32(double x) {
+  volatile float f = static_cast<float>(x);
+  return static_cast<double>(f);
+}
+
+size_t faces_turned_by(const TexturedMesh& in, const TexturedMesh& out, const TexcoordReadBack& read_back) {
+  const auto same = [](const Vec2& t) { return t; };
+  size_t turned = 0;
+  for (size_t i = 0; i < out.faces.size(); ++i) {
+    const Face& f = out.faces[i];
+    if (f.vt[0] == kNoIndex) continue;
+    if (i < in.faces.size() && (in.faces[i].vt[0] == kNoIndex || uv_turn(in, in.faces[i], same) == 0)) continue;
+    const double given = uv_turn(out, f, same);
+    if (given == 0) continue;
+    const double read = uv_turn(out, f, read_back);
+    turned += given > 0 ? !(read > 0) : !(read < 0);
+  }
+  return turned;
+}
 
 Image LoadedModel::page_image(size_t p) const {
   if (p < page_images.size() && !page_images[p].empty()) return page_images[p];

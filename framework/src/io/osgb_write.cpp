@@ -332,6 +332,12 @@ osg::ref_ptr<osg::Image> osg_image(const Image& img, const std::string& file_nam
 
 }  // namespace
 
+TexcoordReadBack OsgbFormat::texcoord_read_back(const PageWriteOptions& /*page_options*/) const {
+  return [](const Vec2& t) {
+    return Vec2(stored_as_float32(t.x()), stored_as_float32(t.y()));
+  };
+}
+
 WriteResult OsgbFormat::write(const LoadedModel& in, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
                               const std::string& stem, const PageWriteOptions& page_options,
                               OutputSet& files) const {

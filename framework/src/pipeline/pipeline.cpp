@@ -562,6 +562,25 @@ std::vector<Image> resample_step(json& report, const PipelineConfig& config, con
   return out_pages;
 }
 
+/// The orientation of the written texture coordinates (ModelFormat::texcoord_read_back): the
+/// faces a reader of `file` finds turned over while the output mesh has them right go to the write
+/// node (`faces_turned_as_written`, or `"not checked"` when the format cannot say) and, when any,
+/// to the report's warnings.
+void check_read_back(json& report, json& node, const TexcoordReadBack& read_back, const TexturedMesh& in,
+                     const TexturedMesh& out, const std::string& file) {
+  if (!read_back) {
+    node["faces_turned_as_written"] = "not checked";
+    return;
+  }
+  const size_t turned = faces_turned_by(in, out, read_back);
+  node["faces_turned_as_written"] = turned;
+  if (turned > 0)
+    report["warnings"].push_back(std::to_string(turned) + " face(s) of " + file +
+                                 " read back turned over: their texture coordinates, rounded as the format "
+                                 "stores them, reverse or collapse their UV triangles (docs/io.md, "
+                                 "\"Orientation as written\")");
+}
+
 /// Step "write": the output mesh and pages through the format's writer into `outputs` (or through
 /// options.write, which writes into its caller's set).
 void write_step(json& report, const PipelineConfig& config, const RunOptions& options, const ModelFormat& format,
@@ -584,6 +603,7 @@ void write_step(json& report, const PipelineConfig& config, const RunOptions& op
     const WriteResult wr = options.write ? options.write(model, out, out_pages, po)
                                          : format.write(model, out, out_pages, stem, po, *outputs);
     node["format"] = format.name();
+    check_read_back(report, node, format.texcoord_read_back(po), model.mesh, out, wr.main_file);
     node["image_format"] = ext == "jpg" ? "jpeg" : "png";
     if (po.format == ImageFormat::Jpeg) {
       node["jpeg_quality"] = po.jpeg_quality;

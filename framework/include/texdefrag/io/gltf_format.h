@@ -33,6 +33,10 @@ class GltfFormat : public ModelFormat {
   GltfOutput build(const LoadedModel& in, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
                    const std::vector<std::string>& names, const PageWriteOptions& page_options) const;
 
+  /// Float32 coordinates, v stored as 1 - v (glTF's origin is top left); empty with Draco output
+  /// `quantized` (the quantisation grid is the encoder's).
+  TexcoordReadBack texcoord_read_back(const PageWriteOptions& page_options) const override;
+
   GltfWriteOptions write_options;  ///< Draco output; set from the configuration by the caller
 };
 

@@ -128,6 +128,9 @@ struct WriteResult {
   json report = json::object();     ///< format-specific figures for the run report's write node
 };
 
+/// A texture coordinate as written and read back (ModelFormat::texcoord_read_back).
+using TexcoordReadBack = std::function<Vec2(const Vec2&)>;
+
 class ModelFormat {
  public:
   virtual ~ModelFormat() = default;
@@ -151,7 +154,30 @@ class ModelFormat {
   virtual WriteResult write(const LoadedModel& in, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
                             const std::string& stem, const PageWriteOptions& page_options,
                             OutputSet& files) const = 0;
+  /// An output texture coordinate (make_output_mesh's, normalised, v up) as a reader of the file
+  /// write() makes with `page_options` gets it back; the pipeline counts the faces this turns over
+  /// (faces_turned_by, run report write.faces_turned_as_written). An empty function: the format
+  /// cannot say (the check is skipped and reported so). Default: unchanged (exact formats: the OBJ
+  /// writer prints doubles that read back bit-identical).
+  virtual TexcoordReadBack texcoord_read_back(const PageWriteOptions& page_options) const;
 };
+
+/// Faces of `out` whose UV triangle, with every texture coordinate t replaced by read_back(t),
+/// turns the other way or collapses (signed area of the opposite sign, or 0) while it does not
+/// with the coordinates as given: faces that a reader of the written file finds turned over,
+/// where the output mesh itself has them right (core/distortion.h counts those). Not counted:
+/// faces without texture coordinates, and faces of zero UV area in `in` or in `out` as given
+/// (a zero-area input face has no orientation to keep; eval counts it apart).
+/// in, out: the input and output meshes of one run (the same faces in the same order; a face
+///          beyond in's faces counts as having UV area).
+/// Cost: one pass over the faces.
+size_t faces_turned_by(const TexturedMesh& in, const TexturedMesh& out, const TexcoordReadBack& read_back);
+
+/// x rounded to the nearest float32, as a double: what a format storing float32 reads back.
+/// note: written through a volatile float, because GCC 12.2 at -O3 folds the pair of conversions
+/// in `Vec2(double(float(t.x())), double(float(t.y())))` away (SLP vectorisation: cvtpd2ps +
+/// cvtps2pd dropped), which returned t unchanged.
+double stored_as_float32(double x);
 
 /// Every built-in format, in the order they are tried.
 const std::vector<const ModelFormat*>& model_formats();

@@ -77,6 +77,8 @@ class OsgbFormat : public ModelFormat {
   WriteResult write(const LoadedModel& in, const TexturedMesh& out_mesh, const std::vector<Image>& pages,
                     const std::string& stem, const PageWriteOptions& page_options,
                     OutputSet& files) const override;
+  /// Float32 coordinates (osg::Vec2Array).
+  TexcoordReadBack texcoord_read_back(const PageWriteOptions& page_options) const override;
 };
 
 /// External files an OSGB file references (PagedLOD children, ProxyNode files), as paths resolved
