@@ -992,6 +992,20 @@ class SquareTetris : public Packer {
                              "megapixels (a cap on the search's time that does not depend on the machine)")
                       .range(0, 1e6)
                       .unit("MP"));
+    // note: off by default. t078_L17 (86 charts, packing factor 0.681; every other model of the
+    // 28-model set 0.72-0.87 but the banana, 0.34) reaches 2.422 MP (program 2.425) with it at 0.70
+    // for 2.3 s of packer CPU instead of 0.3 (docs/packers.md, "Angle search").
+    out.push_back(opt_double("angle_search_packing_below", 0,
+                             "Also search the angles of every free chart, whatever the chart count, when the packing "
+                             "without the search fills less than this share of its page with the charts' dilated "
+                             "outlines (its packing factor; outline tails only), the search then capped by "
+                             "angle_search_opened_max_work (0: off)")
+                      .range(0, 1));
+    out.push_back(opt_double("angle_search_opened_max_work", 300,
+                             "Work cap (as angle_search_max_work, when lower) of a search opened by "
+                             "angle_search_packing_below")
+                      .range(0, 1e6)
+                      .unit("MP"));
     return out;
   }
 
@@ -1631,21 +1645,25 @@ class SquareTetris : public Packer {
     size_t trials = 0;    ///< width trials of the candidate packings, packed or skipped
     size_t skipped = 0;   ///< of those, skipped as bound to stop (bound_to_stop)
     size_t replayed = 0;  ///< chart placements the candidates' trials replayed (TetrisTrial::replay)
+    bool opened = false;  ///< a search ran beyond angle_search_max_charts (angle_search_packing_below)
   };
 
   /// The charts the angle search turns in p (settings s): every free chart when the search is on
   /// (angle_search_max_charts > 0), free rotation is on and p has at most angle_search_max_charts
-  /// charts; else none. Exact charts keep quarter turns. Ordered by increasing fill of their box
-  /// (UV area / box area at the minimum-area angle; ties: chart id).
+  /// charts, or more but fills less than angle_search_packing_below of its page with the charts'
+  /// dilated outlines (then *opened = true); else none. Exact charts keep quarter turns. Ordered by
+  /// increasing fill of their box (UV area / box area at the minimum-area angle; ties: chart id).
   /// note: a chart that fills its box is near its best at the minimum-area angle; a concave one is
   /// where the angle matters, and the coordinate descent's first charts choose from the most
   /// angles. YCB banana: the V-shaped peel (fill 0.12-0.2) first 8.32 MP, decreasing box area (the
   /// W-shaped peel first, its angle then fixed for the V's search) 8.91 MP.
-  std::vector<int> angle_search_charts(const Packed& p, const CommonSettings& s) const {
+  std::vector<int> angle_search_charts(const Packed& p, const CommonSettings& s, bool* opened) const {
     const long long max_charts = options().get_int("angle_search_max_charts");
+    const double below = options().get_double("angle_search_packing_below");
     std::vector<int> out;
     const auto charts = std::count_if(p.in.charts.begin(), p.in.charts.end(), [](const PackChart& c) { return !c.faces.empty(); });
-    if (max_charts <= 0 || !s.free_rotation || charts > max_charts) return out;
+    *opened = charts > max_charts && p.padded > 0 && static_cast<double>(p.padded) < below * p.r.total_area();
+    if (max_charts <= 0 || !s.free_rotation || (charts > max_charts && !*opened)) return out;
     for (const PackChart& c : p.in.charts)
       if (!c.faces.empty() && !c.exact) out.push_back(c.id);
     auto fill = [&](int id) {
@@ -1678,19 +1696,23 @@ class SquareTetris : public Packer {
   /// j = 0 .. 90 / step - 1 (quarter turns are tried by every packing), each a whole packing
   /// (repack_turned) against p, and p takes the smallest (fewest pages, then least page area, then
   /// the earliest j) when it is strictly smaller than p: the result is never larger. A chart whose
-  /// candidates would take st.work past angle_search_max_work (candidates x p's page area, MP) is
+  /// candidates would take st.work past angle_search_max_work (or angle_search_opened_max_work
+  /// when lower and the search is opened: angle_search_charts) (candidates x p's page area, MP) is
   /// skipped (st.capped): the cap depends on the packings alone, not on time. A chart's
   /// candidates are packed side by side (one per item; each against the same p), so the result does
   /// not depend on the thread count. st.packings counts the candidates.
   /// note: the minimum-area angle of a concave chart is often not the one that packs best (YCB
   /// banana's V-shaped peel: docs/packers.md, "Angle search").
   void search_angles(const StageContext& ctx, Packed& p, const CommonSettings& s, AngleStats& st) const {
-    const std::vector<int> ids = angle_search_charts(p, s);
+    bool opened = false;
+    const std::vector<int> ids = angle_search_charts(p, s, &opened);
     if (ids.empty()) return;
+    st.opened = st.opened || opened;
     const double step = options().get_double("angle_step_degrees");
     const int steps = std::max(1, static_cast<int>(std::floor(90.0 / step + 1e-9)));
     const long long rounds = options().get_int("angle_search_rounds");
-    const double max_work = options().get_double("angle_search_max_work");
+    double max_work = options().get_double("angle_search_max_work");
+    if (opened) max_work = std::min(max_work, options().get_double("angle_search_opened_max_work"));
     std::vector<double> start(p.in.charts.size(), 0.0);  // the minimum-area angles
     for (const PackChart& c : p.in.charts) start[static_cast<size_t>(c.id)] = c.angle;
     constexpr double kPi = 3.14159265358979323846;
@@ -1797,6 +1819,7 @@ class SquareTetris : public Packer {
     rep["angle_search_width_trials"] = angles.trials;
     rep["angle_search_width_trials_skipped"] = angles.skipped;
     rep["angle_search_placements_replayed"] = angles.replayed;
+    rep["angle_search_opened"] = angles.opened;
     rep["angle_search_charts_turned"] = best.turned;
     rep["angle_search_megapixels_before"] = angles.before / 1e6;
     rep["hole_fills"] = r.hole_fills;

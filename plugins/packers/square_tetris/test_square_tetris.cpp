@@ -804,6 +804,44 @@ TEST(PackersSquareTetris, AngleSearchSkipsTheWidthTrialsBoundToStopAsBefore) {
   set_thread_count(0);
 }
 
+TEST(PackersSquareTetris, AngleSearchOpensBelowAPackingFactor) {
+  // The V and the triangle of AngleSearchFindsTheAngleAConcaveChartPacksBestAt with
+  // angle_search_max_charts 1 (2 charts: no search by count). Without the search the page is 216 x
+  // 144 texels (0.031104 MP), which the charts' dilated outlines fill far less than entirely.
+  // angle_search_packing_below 1 opens the search (any packing factor is below 1): the V's 11
+  // candidates run and the page is smaller, as with the search on by count; 0.01 (no packing is that
+  // sparse) and 0 (off, the default) do not. An opened search has its own work cap:
+  // angle_search_opened_max_work 0.34 MP skips the V's 11 x 0.031104 MP of candidates.
+  const std::vector<std::vector<Vec2>> polys = v_and_triangle();
+  const json base = {{"page_multiple", 4}, {"angle_search_max_charts", 1}};
+  auto with = [&](const json& extra) {
+    json o = base;
+    for (const auto& [k, v] : extra.items()) o[k] = v;
+    return run_packer(kName, polygon_mesh(polys, 1024), o, turn_chart0(0.3));
+  };
+  const auto mp = [](const PackRun& r) { return r.report.at("page_megapixels").get<double>(); };
+  auto off = with(json::object());
+  ASSERT_DOUBLE_EQ(mp(*off), 216.0 * 144.0 / 1e6);
+  EXPECT_EQ(off->report.at("angle_search_packings").get<int>(), 0);
+  EXPECT_FALSE(off->report.at("angle_search_opened").get<bool>());
+  auto opened = with({{"angle_search_packing_below", 1.0}});
+  expect_valid_layout(*opened, 4);
+  EXPECT_TRUE(opened->report.at("angle_search_opened").get<bool>());
+  EXPECT_EQ(opened->report.at("angle_search_packings").get<int>(), 11);
+  EXPECT_LT(mp(*opened), mp(*off));
+  auto by_count = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 4}}, turn_chart0(0.3));
+  EXPECT_EQ(opened->ctx.layout.wedge_uv, by_count->ctx.layout.wedge_uv);
+  EXPECT_FALSE(by_count->report.at("angle_search_opened").get<bool>());
+  auto dense = with({{"angle_search_packing_below", 0.01}});
+  EXPECT_EQ(dense->report.at("angle_search_packings").get<int>(), 0);
+  EXPECT_EQ(dense->ctx.layout.wedge_uv, off->ctx.layout.wedge_uv);
+  auto capped = with({{"angle_search_packing_below", 1.0}, {"angle_search_opened_max_work", 0.34}});
+  EXPECT_TRUE(capped->report.at("angle_search_capped").get<bool>());
+  EXPECT_EQ(capped->report.at("angle_search_packings").get<int>(), 0);
+  auto uncapped = with({{"angle_search_packing_below", 1.0}, {"angle_search_opened_max_work", 0.35}});
+  EXPECT_EQ(uncapped->report.at("angle_search_packings").get<int>(), 11);
+}
+
 TEST(PackersSquareTetris, AngleSearchOptionsAreDeclaredWithRanges) {
   Registry::instance().load_plugins();
   const StageInfo* info = Registry::instance().find(kName);
@@ -819,4 +857,7 @@ TEST(PackersSquareTetris, AngleSearchOptionsAreDeclaredWithRanges) {
   EXPECT_EQ(check("angle_search_max_charts", -1), "= -1 outside [0, 1000]");
   EXPECT_EQ(check("angle_search_max_charts", 0), "");  // off
   EXPECT_EQ(check("angle_search_rounds", 0), "= 0 outside [1, 8]");
+  EXPECT_EQ(check("angle_search_packing_below", 1.5), "= 1.5 outside [0, 1]");
+  EXPECT_EQ(check("angle_search_packing_below", 0.0), "");  // off
+  EXPECT_EQ(check("angle_search_opened_max_work", -1), "= -1 outside [0, 1e+06]");
 }
