@@ -82,6 +82,29 @@ inline double grid(double g, int size, bool repeat) {
 /// than std::floor without SSE4.1.
 inline int ifloor(double g) { return static_cast<int>(g + 16.0) - 16; }
 
+/// A texel's channels, padded to four lanes (the lanes from C on stay 0): one SSE register, so the
+/// fit's products and the block fill run on every channel at once (GCC's vector types). Each
+/// lane's arithmetic is the scalar code's, operation for operation, and lanes never mix, so the
+/// values are those of the channel-by-channel code, bit for bit.
+using Lanes = float __attribute__((vector_size(16)));
+using IntLanes = int __attribute__((vector_size(16)));
+
+/// The C channels of a texel as lanes (the others 0).
+template <int C>
+Lanes texel_lanes(const uint8_t* p) {
+  Lanes v = {};
+  for (int c = 0; c < C; ++c) v[c] = static_cast<float>(p[c]);
+  return v;
+}
+
+/// The C channels of a texel as integer lanes (the others 0).
+template <int C>
+IntLanes texel_ints(const uint8_t* p) {
+  IntLanes v = {};
+  for (int c = 0; c < C; ++c) v[c] = p[c];
+  return v;
+}
+
 /// Rounds to the nearest byte value, clamping to [0, 255] (NaN gives 0).
 inline uint8_t to_byte(float v) {
   const float r = v + 0.5f;
@@ -121,6 +144,21 @@ struct Sampler {
     float v[C];
     bilinear_f(gx, gy, v);
     for (int c = 0; c < C; ++c) out[c] = to_byte(v[c]);
+  }
+
+  /// bilinear_f's values as lanes (the others 0): the same operations on every channel at once.
+  Lanes bilinear_lanes(double gx, double gy) const {
+    gx = grid(gx, w, repeat);
+    gy = grid(gy, h, repeat);
+    const int x0 = ifloor(gx), y0 = ifloor(gy);
+    const float fx = static_cast<float>(gx - x0), fy = static_cast<float>(gy - y0);
+    const int xa = address(x0, w, repeat), xb = address(x0 + 1, w, repeat);
+    const int ya = address(y0, h, repeat), yb = address(y0 + 1, h, repeat);
+    const IntLanes i00 = texel_ints<C>(texel(xa, ya)), i10 = texel_ints<C>(texel(xb, ya));
+    const IntLanes i01 = texel_ints<C>(texel(xa, yb)), i11 = texel_ints<C>(texel(xb, yb));
+    const Lanes top = __builtin_convertvector(i00, Lanes) + fx * __builtin_convertvector(i10 - i00, Lanes);
+    const Lanes bot = __builtin_convertvector(i01, Lanes) + fx * __builtin_convertvector(i11 - i01, Lanes);
+    return top + fy * (bot - top);
   }
 
   /// Bilinear value without rounding (the least-squares fit's target).
@@ -645,19 +683,6 @@ constexpr double kGauss[2] = {0.21132486540518713, 0.78867513459481287};
 /// Tikhonov weight towards the sampled value, relative to a fully covered texel's weight (16/9).
 constexpr float kFitRegularisation = 0.02f;
 
-/// One unknown's channels in the fit's vectors, padded to four lanes (the lanes from C on stay 0):
-/// one SSE register, so the system's products run on every channel at once (GCC's vector types).
-/// Each lane's arithmetic is the scalar code's, operation for operation, and lanes never mix, so
-/// the fitted texels are those of the channel-by-channel code, byte for byte.
-using Lanes = float __attribute__((vector_size(16)));
-
-/// The C channels of a texel as lanes (the others 0).
-template <int C>
-Lanes texel_lanes(const uint8_t* p) {
-  Lanes v = {};
-  for (int c = 0; c < C; ++c) v[c] = static_cast<float>(p[c]);
-  return v;
-}
 
 /// Sum over the samples present in `mask` (bit 2b + a: Gauss point (a, b) of the cell) of w w^T,
 /// w = bilinear weights of the cell's corners (index 2 dy + dx).
@@ -879,10 +904,7 @@ void add_face_to_rhs(const FaceJob& job, const std::vector<const Image*>& inputs
           cm = static_cast<uint8_t>(cm | bit);
           const double ox = px + 0.5, oy = H - py - 0.5;
           const double u = af.A00 * ox + af.A01 * oy + af.t0, v = af.A10 * ox + af.A11 * oy + af.t1;
-          float target[C];
-          src.bilinear_f(u - 0.5, Hi - v - 0.5, target);
-          Lanes t = {};
-          for (int c = 0; c < C; ++c) t[c] = target[c];
+          const Lanes t = src.bilinear_lanes(u - 0.5, Hi - v - 0.5);
           for (int k = 0; k < 4; ++k)
             if (ids[k] >= 0) rhs[static_cast<size_t>(ids[k])] += weights[static_cast<size_t>(2 * b + a)][static_cast<size_t>(k)] * t;
         }
@@ -1013,21 +1035,41 @@ void solve_fit(const FitSystem& sys, std::vector<Lanes>& rhs, std::vector<Lanes>
   }
 }
 
-/// The fit over the fitted texels of the window [X0, X1) x [Y0, Y1) (texel indices, row 0 at the
-/// top); `faces`: the page's faces (in face order) whose box may reach the window's cells (others
-/// add nothing). Returns the number of texels fitted.
+/// A fit window's part that does not depend on other windows' fitted texels: its unknowns, its
+/// cells' masks and its right-hand side from the faces (prepare_window), kept for its solve.
+struct PreparedWindow {
+  FitUnknowns unknowns;
+  FitCells cells;
+  std::vector<Lanes> rhs;  ///< U + 1 entries (empty when U = 0)
+};
+
+/// Prepares the fit of the window [X0, X1) x [Y0, Y1) (texel indices, row 0 at the top): reads the
+/// canvas's state and the input pages only, never a texel a window's solve writes. `faces`: the
+/// page's faces (in face order) whose box may reach the window's cells (others add nothing).
 template <int C>
-size_t fit_window(const std::vector<int>& faces, const JobSource& source, const std::vector<const Image*>& inputs,
-                  int iterations, Canvas& cv, int X0, int Y0, int X1, int Y1) {
-  const FitUnknowns unknowns = collect_unknowns(cv, X0, Y0, X1, Y1);
+std::unique_ptr<PreparedWindow> prepare_window(const std::vector<int>& faces, const JobSource& source,
+                                               const std::vector<const Image*>& inputs, const Canvas& cv, int X0,
+                                               int Y0, int X1, int Y1) {
+  std::unique_ptr<PreparedWindow> w(
+      new PreparedWindow{collect_unknowns(cv, X0, Y0, X1, Y1), FitCells(cv.w, cv.h, X0, Y0, X1, Y1), {}});
+  const size_t U = w->unknowns.texel_of.size();
+  if (U == 0) return w;
+  w->rhs.assign(U + 1, Lanes{});
+  for (const int f : faces) add_face_to_rhs<C>(source.job(f), inputs, w->unknowns, w->cells, w->rhs);
+  return w;
+}
+
+/// Solves a prepared window's fit and writes its texels; reads the texels of a ring one texel wide
+/// around it (fitted or not: see fit_least_squares). Returns the number of texels fitted.
+template <int C>
+size_t solve_window(PreparedWindow& w, int iterations, Canvas& cv) {
+  const FitUnknowns& unknowns = w.unknowns;
   const size_t U = unknowns.texel_of.size();
   if (U == 0) return 0;
-  FitCells cells(cv.w, cv.h, X0, Y0, X1, Y1);
-  std::vector<Lanes> rhs(U + 1, Lanes{});
-  for (const int f : faces) add_face_to_rhs<C>(source.job(f), inputs, unknowns, cells, rhs);
+  std::vector<Lanes>& rhs = w.rhs;
   // Fixed corners move to the right-hand side; the Tikhonov term pulls towards the sampled value.
-  FitSystem sys = assemble_system<C>(cv, unknowns, cells, rhs);
-  cells.mask = std::vector<uint8_t>();
+  FitSystem sys = assemble_system<C>(cv, unknowns, w.cells, rhs);
+  w.cells.mask = std::vector<uint8_t>();
   sys.lambda = kFitRegularisation * 16.f / 9.f;
   const uint8_t* px = cv.img->pixels.data();
   std::vector<Lanes> x(U + 1, Lanes{});
@@ -1042,6 +1084,68 @@ size_t fit_window(const std::vector<int>& faces, const JobSource& source, const 
     for (int c = 0; c < C; ++c) out[unknowns.texel_of[u] * C + static_cast<size_t>(c)] = to_byte(x[u][c]);
   return U;
 }
+
+/// The order of the fit's work on several threads. Window w = i nx + j (row i, column j) is first
+/// prepared (in raster order, at most `ahead` windows past the lowest unsolved one), then solved
+/// once it is prepared and (i, j-1) and (i-1, min(j+1, nx-1)) are solved (see fit_least_squares).
+/// Solves go first (they are the chain); a worker waits only while no task is ready and another
+/// worker runs one, so the lowest unsolved window is always prepared or next to be prepared.
+class FitSchedule {
+ public:
+  struct Task {
+    bool solve = false;
+    size_t window = 0;
+  };
+
+  FitSchedule(int nx, int ny, size_t ahead)
+      : nx_(static_cast<size_t>(nx)), n_(static_cast<size_t>(nx) * static_cast<size_t>(ny)), ahead_(ahead),
+        state_(n_, kNew) {}
+
+  /// The next task; false when every window is solved or a task failed.
+  bool next(Task& t) {
+    std::unique_lock<std::mutex> lock(m_);
+    for (;;) {
+      if (failed_ || first_unsolved_ == n_) return false;
+      for (size_t w = first_unsolved_; w < next_prepare_; ++w)
+        if (state_[w] == kPrepared && ready(w)) {
+          state_[w] = kRunning;
+          t = {true, w};
+          return true;
+        }
+      if (next_prepare_ < n_ && next_prepare_ - first_unsolved_ < ahead_) {
+        t = {false, next_prepare_++};
+        return true;
+      }
+      cv_.wait(lock);
+    }
+  }
+  /// Task t has finished.
+  void done(const Task& t) {
+    std::lock_guard<std::mutex> lock(m_);
+    state_[t.window] = t.solve ? kSolved : kPrepared;
+    while (first_unsolved_ < n_ && state_[first_unsolved_] == kSolved) ++first_unsolved_;
+    cv_.notify_all();
+  }
+  /// A task threw: the other workers stop.
+  void fail() {
+    std::lock_guard<std::mutex> lock(m_);
+    failed_ = true;
+    cv_.notify_all();
+  }
+
+ private:
+  enum State : uint8_t { kNew, kPrepared, kRunning, kSolved };
+  bool ready(size_t w) const {
+    const size_t i = w / nx_, j = w % nx_;
+    return (j == 0 || state_[w - 1] == kSolved) && (i == 0 || state_[(i - 1) * nx_ + std::min(j + 1, nx_ - 1)] == kSolved);
+  }
+  size_t nx_, n_, ahead_;
+  std::vector<State> state_;
+  size_t first_unsolved_ = 0, next_prepare_ = 0;
+  bool failed_ = false;
+  std::mutex m_;
+  std::condition_variable cv_;
+};
 
 /// The page's faces (in face order) whose grid box may reach the cells of each fit window (index
 /// row * nx + column): a superset of the faces that add to the window's right-hand side (the test in
@@ -1076,32 +1180,48 @@ std::vector<std::vector<int>> window_faces(const std::vector<int>& faces, const 
 }
 
 /// The least-squares fit of every fitted texel of the page, window by window (kFitWindow), on up to
-/// `threads` threads with the result of the raster order. A window writes only its own texels and
-/// reads them and a ring one texel wide around it, so window (i, j) (row i, column j) must see
-/// (i-1, j+1), (i-1, j), (i-1, j-1) and (i, j-1) fitted and (i, j+1), (i+1, *) not yet fitted.
-/// Wavefronts t = 2 i + j satisfy that: (i-1, j+1) is on t-1, (i+1, j-1) on t+1, and windows of one
-/// wavefront are two columns apart, so their rings never meet. The texels are those of the raster
-/// order, byte for byte, for any thread count.
+/// `threads` threads with the result of the raster order. A window's solve writes only its own
+/// texels and reads them and a ring one texel wide around it, so window (i, j) (row i, column j)
+/// must see (i-1, j+1), (i-1, j), (i-1, j-1) and (i, j-1) fitted and (i, j+1), (i+1, *) not yet
+/// fitted. FitSchedule solves (i, j) after (i, j-1) and (i-1, min(j+1, nx-1)), which were solved
+/// after the other two; (i, j+1) and (i+1, *) wait for (i, j) (directly or through (i+1, j-1) ->
+/// (i, j)). A window's preparation (its right-hand side from the faces, about half its work) reads
+/// no texel and runs whenever a thread is free. The texels are those of the raster order, byte for
+/// byte, for any thread count. (Until 2026-12-04 windows ran in wavefronts t = 2 i + j, with a
+/// barrier after each: one window on the first and last wavefronts.)
 template <int C>
 size_t fit_least_squares(const std::vector<int>& faces, const JobSource& source, const std::vector<const Image*>& inputs,
                          int iterations, Canvas& cv, int threads) {
   const int nx = (cv.w + kFitWindow - 1) / kFitWindow, ny = (cv.h + kFitWindow - 1) / kFitWindow;
   std::vector<std::vector<int>> per_window = window_faces(faces, source, cv.h, nx, ny);
+  std::vector<std::unique_ptr<PreparedWindow>> prepared(per_window.size());
+  std::vector<size_t> counts(per_window.size(), 0);
+  const int workers = std::max(1, threads);
+  FitSchedule schedule(nx, ny, static_cast<size_t>(nx) + 2 * static_cast<size_t>(workers));
+  parallel_for(static_cast<size_t>(workers), workers, [&](size_t) {
+    FitSchedule::Task t;
+    try {
+      while (schedule.next(t)) {
+        const size_t w = t.window;
+        if (t.solve) {
+          counts[w] = solve_window<C>(*prepared[w], iterations, cv);
+          prepared[w].reset();
+        } else {
+          const int x0 = static_cast<int>(w % static_cast<size_t>(nx)) * kFitWindow;
+          const int y0 = static_cast<int>(w / static_cast<size_t>(nx)) * kFitWindow;
+          prepared[w] = prepare_window<C>(per_window[w], source, inputs, cv, x0, y0, std::min(x0 + kFitWindow, cv.w),
+                                          std::min(y0 + kFitWindow, cv.h));
+          per_window[w] = std::vector<int>();
+        }
+        schedule.done(t);
+      }
+    } catch (...) {
+      schedule.fail();
+      throw;
+    }
+  });
   size_t fitted = 0;
-  for (int t = 0; t <= 2 * (ny - 1) + (nx - 1); ++t) {
-    std::vector<std::pair<int, int>> wave;  // (row, column)
-    for (int i = 0; i < ny; ++i)
-      if (t - 2 * i >= 0 && t - 2 * i < nx) wave.emplace_back(i, t - 2 * i);
-    std::vector<size_t> counts(wave.size(), 0);
-    parallel_for(wave.size(), threads, [&](size_t k) {
-      const int x0 = wave[k].second * kFitWindow, y0 = wave[k].first * kFitWindow;
-      std::vector<int>& mine = per_window[static_cast<size_t>(wave[k].first) * static_cast<size_t>(nx) + static_cast<size_t>(wave[k].second)];
-      counts[k] = fit_window<C>(mine, source, inputs, iterations, cv, x0, y0, std::min(x0 + kFitWindow, cv.w),
-                                std::min(y0 + kFitWindow, cv.h));
-      mine = std::vector<int>();
-    });
-    for (size_t c : counts) fitted += c;
-  }
+  for (size_t c : counts) fitted += c;
   return fitted;
 }
 
