@@ -5,6 +5,7 @@
 #include "texdefrag/io/obj.h"
 #include "texdefrag/pipeline/pipeline.h"
 #include "texdefrag/testing/fixtures.h"
+#include "texdefrag/util/parallel.h"
 #include "texdefrag/util/paths.h"
 
 #include <gtest/gtest.h>
@@ -196,6 +197,33 @@ TEST(Pipeline, BadInputNamesTheFile) {
     EXPECT_NE(std::string(e.what()).find("bad.obj:4"), std::string::npos) << e.what();
   }
   EXPECT_FALSE(fs::exists(dir + "/out/bad.obj"));
+}
+
+TEST(Pipeline, APageThatCannotBeDecodedFailsTheSameWithAnyThreadCount) {
+  // The page's header reads (the reader takes its size from it) but its pixels do not. With two
+  // threads the pages are decoded while the stages run (EarlyPages), with one at the resampling:
+  // the same error either way, and nothing written.
+  const std::string dir = texdefrag::testing::temp_dir();
+  const std::string model = small_model(dir);
+  const auto size = fs::file_size(dir + "/page.png");
+  fs::resize_file(dir + "/page.png", size / 2);
+  std::string messages[2];
+  for (int threads = 1; threads <= 2; ++threads) {
+    set_thread_count(threads);
+    RunOptions ro;
+    ro.input = model;
+    ro.output_dir = dir + "/out" + std::to_string(threads);
+    try {
+      run_pipeline(load_config(config_path("repack.json")), ro);
+      ADD_FAILURE() << threads << " threads: no error";
+    } catch (const std::exception& e) {
+      messages[threads - 1] = e.what();
+    }
+    EXPECT_FALSE(fs::exists(ro.output_dir + "/small.obj"));
+  }
+  set_thread_count(0);
+  EXPECT_NE(messages[0].find("page.png"), std::string::npos) << messages[0];
+  EXPECT_EQ(messages[0], messages[1]);
 }
 
 TEST(PipelineReal, RepackKeepsGeometryAndTexture) {

@@ -14,8 +14,10 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <exception>
 #include <memory>
 #include <sstream>
+#include <thread>
 
 namespace fs = std::filesystem;
 
@@ -542,14 +544,73 @@ std::vector<Image> decode_used_pages(const LoadedModel& model) {
   return pages;
 }
 
-/// Step "texture.resample": decodes the input pages some face uses, returns the output pages of
-/// ctx's atlas and layout.
+/// Largest decoded size (bytes, 4 per pixel) of the used input pages that EarlyPages decodes while
+/// the stages run: they are held through the merger and the packer, so big models (the 1M factory:
+/// 72 MP) keep decoding at the resampling, under their merger's peak. 64 MiB: t016_L19 (10.7 MP)
+/// and the 100k factory (6.3 MP) are inside, each tile's peak stays under the M-method's program.
+constexpr size_t kEarlyDecodeMaxBytes = size_t(64) << 20;
+
+/// The input pages some face uses, decoded on a thread of their own while the stages run (with more
+/// than one thread, a run that goes on to the resampling and used pages of known size up to
+/// kEarlyDecodeMaxBytes), else by decode_used_pages when the resampling asks. The merger's second
+/// pass is one queue (docs/speed.md): the second core is mostly idle then, and the decoding
+/// (t078_L17 0.09 s, t016_L19 0.17 s of one core, in turn) fits beside it. The pixels depend on the
+/// files alone; pages are decoded in turn, so an error is the lowest-numbered failing page's, thrown
+/// by take() where the resampling throws it.
+class EarlyPages {
+ public:
+  EarlyPages(const LoadedModel& model, const RunOptions& options) : model_(model) {
+    if (thread_count() <= 1 || !options.stop_after.empty()) return;
+    size_t bytes = 0;
+    std::vector<uint8_t> used(model.mesh.pages.size(), 0);
+    for (const Face& f : model.mesh.faces)
+      if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
+    for (size_t p = 0; p < used.size(); ++p) {
+      const Page& page = model.mesh.pages[p];
+      if (!used[p]) continue;
+      if (page.width <= 0 || page.height <= 0) return;
+      bytes += static_cast<size_t>(page.width) * static_cast<size_t>(page.height) * 4;
+    }
+    if (bytes == 0 || bytes > kEarlyDecodeMaxBytes) return;
+    thread_ = std::thread([this, used] {
+      try {
+        pages_.resize(used.size());
+        for (size_t p = 0; p < used.size(); ++p)
+          if (used[p]) pages_[p] = model_.page_image(p);
+      } catch (...) {
+        error_ = std::current_exception();
+      }
+    });
+  }
+  EarlyPages(const EarlyPages&) = delete;
+  EarlyPages& operator=(const EarlyPages&) = delete;
+  ~EarlyPages() {
+    if (thread_.joinable()) thread_.join();
+  }
+
+  /// The decoded pages (decoded now when no thread was started); rethrows the thread's error.
+  std::vector<Image> take() {
+    if (!thread_.joinable()) return decode_used_pages(model_);
+    thread_.join();
+    if (error_) std::rethrow_exception(error_);
+    return std::move(pages_);
+  }
+
+ private:
+  const LoadedModel& model_;
+  std::thread thread_;
+  std::vector<Image> pages_;
+  std::exception_ptr error_;
+};
+
+/// Step "texture.resample": takes the input pages some face uses (`early`), returns the output
+/// pages of ctx's atlas and layout.
 std::vector<Image> resample_step(json& report, const PipelineConfig& config, const LoadedModel& model,
-                                 const StageContext& ctx, const ProgressFn& progress) {
+                                 const StageContext& ctx, const ProgressFn& progress, EarlyPages& early) {
   const TexturedMesh& mesh = model.mesh;
   std::vector<Image> out_pages;
   timed(report, "texture.resample", [&](json& node) {
-    const std::vector<Image> in_pages = decode_used_pages(model);
+    const std::vector<Image> in_pages = early.take();
     const ResampleOptions ro = resample_options(config.texture);
     ResampleStats rs;
     out_pages = resample_atlas(mesh, in_pages, ctx.atlas, ctx.layout, ro, &rs, progress);
@@ -713,6 +774,7 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   ctx.progress = progress;
   ctx.input_path = options.input;
   ctx.outputs = outputs.get();
+  EarlyPages early_pages(model, options);
   if (!run_stages(report, config, options, ctx, input_overlaps)) return report;
 
   // note: the topology and the input charts serve the stages only; released here, so they do not
@@ -726,7 +788,7 @@ json run_pipeline(const PipelineConfig& config, const RunOptions& options) {
   // large buffers (fresh pages): 613 -> 157 MiB at its start on the 1M-face factory, its peak 822 ->
   // 695 MiB. Only here: every page given back is faulted in again when reused (CPU time).
   release_free_memory();
-  const std::vector<Image> out_pages = resample_step(report, config, model, ctx, progress);
+  const std::vector<Image> out_pages = resample_step(report, config, model, ctx, progress, early_pages);
   // note: the resampling's input pages and fit windows are free now; given back before the write
   // step, whose page encoding (a progressive JPEG holds every coefficient of its page) is the
   // run's peak on large models.
