@@ -120,6 +120,15 @@ std::vector<OptionSpec> trial_and_weld_specs() {
                  "min_singular_value of the unconstrained trial (its collapsed-triangle refusal); negative: the same "
                  "as min_singular_value")
           .range(-1, 1),
+      opt_int("unconstrained_trial_max_attempts", 0,
+              "max_attempts of the unconstrained trial; 0: the same as max_attempts")
+          .range(0, 1000),
+      opt_double("unconstrained_trial_repaired_global_share", -1,
+                 "repaired_global_share of the unconstrained trial; negative: the same as repaired_global_share")
+          .range(-1, 1),
+      opt_double("unconstrained_trial_second_pass_local_bound", -1,
+                 "second_pass_local_bound of the unconstrained trial; negative: the same as second_pass_local_bound")
+          .range(-1, 1e6),
       opt_bool("fan_targets", false,
                "Solve with target shapes whose angles close every boundary fan of the merged chart that its input UV "
                "angles would open past a full turn (the move is still measured against the input UV triangles)"),
@@ -167,6 +176,9 @@ MergeOptions merge_options_from(const Options& o) {
   m.unconstrained_trial = o.get_bool("unconstrained_trial");
   m.unconstrained_trial_share = o.get_double("unconstrained_trial_share");
   m.unconstrained_trial_min_singular_value = o.get_double("unconstrained_trial_min_singular_value");
+  m.unconstrained_trial_max_attempts = static_cast<int>(o.get_int("unconstrained_trial_max_attempts"));
+  m.unconstrained_trial_repaired_global_share = o.get_double("unconstrained_trial_repaired_global_share");
+  m.unconstrained_trial_second_pass_local_bound = o.get_double("unconstrained_trial_second_pass_local_bound");
   m.unconstrained_trial_beside = o.get_bool("unconstrained_trial_beside");
   m.unconstrained_trial_beside_max_faces = static_cast<size_t>(o.get_int("unconstrained_trial_beside_max_faces"));
   m.fan_targets = o.get_bool("fan_targets");
@@ -251,6 +263,18 @@ json MergeReport::to_json() const {
 }
 
 namespace {
+/// The options the unconstrained trial runs with: the run's, with its own limits where set
+/// (unconstrained_trial_*: docs/mergers.md, "The trial's own limits").
+void trial_options(MergeOptions& opt) {
+  if (opt.unconstrained_trial_min_singular_value >= 0)
+    opt.min_singular_value = opt.unconstrained_trial_min_singular_value;
+  if (opt.unconstrained_trial_max_attempts > 0) opt.max_attempts = opt.unconstrained_trial_max_attempts;
+  if (opt.unconstrained_trial_repaired_global_share >= 0)
+    opt.repaired_global_share = opt.unconstrained_trial_repaired_global_share;
+  if (opt.unconstrained_trial_second_pass_local_bound >= 0)
+    opt.second_pass_local_bound = opt.unconstrained_trial_second_pass_local_bound;
+}
+
 /// The unconstrained trial (docs/mergers.md, "Unconstrained trial"): a merge of the input atlas
 /// without regions. With two threads or more it starts on a thread of its own beside the run with
 /// regions (whose first pass spreads its regions over the threads, while the trial's is one queue)
@@ -296,8 +320,7 @@ class Trial {
     const std::vector<int> no_regions;  // (the engine keeps a reference)
     MergeOptions opt = opt_;
     opt.first_pass_speculation = !beside;
-    if (opt.unconstrained_trial_min_singular_value >= 0)
-      opt.min_singular_value = opt.unconstrained_trial_min_singular_value;
+    trial_options(opt);
     detail::Engine e(mesh_, topo_, atlas, no_regions, opt, solver_);
     e.input_charts_from(charts_);
     e.cancel_when(cancel);

@@ -78,6 +78,13 @@ struct MergeOptions {
   /// where the regions left the budget unspent, so collapsed-triangle refusals there mostly keep
   /// seams cut rather than save budget (docs/mergers.md, "The trial's collapse limit").
   double unconstrained_trial_min_singular_value = -1;
+  /// The trial's max_attempts, repaired_global_share and second_pass_local_bound; 0 / negative =
+  /// the run's own. Like the collapse limit, they act only where the regions left the budget
+  /// unspent, and the trial is kept only when it leaves less seam (docs/mergers.md, "The trial's
+  /// own limits").
+  int unconstrained_trial_max_attempts = 0;
+  double unconstrained_trial_repaired_global_share = -1;
+  double unconstrained_trial_second_pass_local_bound = -1;
   /// With two threads or more the trial starts on a thread of its own beside the run with regions and
   /// is dropped when that run's distortion reaches the share (same atlas, less wall time, two engines in
   /// memory); false runs it after that run.

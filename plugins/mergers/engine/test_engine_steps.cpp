@@ -578,6 +578,69 @@ TEST(MergeEngineSteps, TheTrialRefusesCollapsedTrianglesByItsOwnLimit) {
   }
 }
 
+TEST(MergeEngineSteps, TheTrialsOwnLimitsAreDeclaredWithRangesAndRead) {
+  const std::vector<OptionSpec> specs = merge_option_specs();
+  json values = json::object();
+  for (const OptionSpec& sp : specs) values[sp.key] = sp.default_value;
+  auto check = [&](const std::string& key, const json& v) {
+    for (const OptionSpec& sp : specs)
+      if (sp.key == key) return check_option_value(sp, v);
+    ADD_FAILURE() << "no option " << key;
+    return std::string();
+  };
+  EXPECT_EQ(check("unconstrained_trial_max_attempts", -1), "= -1 outside [0, 1000]");
+  EXPECT_EQ(check("unconstrained_trial_repaired_global_share", 1.5), "= 1.5 outside [-1, 1]");
+  EXPECT_EQ(check("unconstrained_trial_second_pass_local_bound", -2), "= -2 outside [-1, 1e+06]");
+  // The defaults are "the run's own".
+  const MergeOptions d = merge_options_from(Options(values));
+  EXPECT_EQ(d.unconstrained_trial_max_attempts, 0);
+  EXPECT_LT(d.unconstrained_trial_repaired_global_share, 0);
+  EXPECT_LT(d.unconstrained_trial_second_pass_local_bound, 0);
+  values["unconstrained_trial_max_attempts"] = 6;
+  values["unconstrained_trial_repaired_global_share"] = 1.0;
+  values["unconstrained_trial_second_pass_local_bound"] = 0.5;
+  const MergeOptions m = merge_options_from(Options(values));
+  EXPECT_EQ(m.unconstrained_trial_max_attempts, 6);
+  EXPECT_EQ(m.unconstrained_trial_repaired_global_share, 1.0);
+  EXPECT_EQ(m.unconstrained_trial_second_pass_local_bound, 0.5);
+}
+
+TEST(MergeEngineSteps, TheTrialMergesWithItsOwnAttemptsAndSecondPassBound) {
+  // By hand: the two squares of the test above (right one 1.5x denser), in two regions, merged by a
+  // second pass across regions only. Every first pass refuses the weld (local_bound 1e-9: any
+  // squeeze is over it) and spends one attempt on the pair. The run with regions never has the
+  // pair in its first pass, and its second pass refuses it too (second_pass_local_bound 1e-9). The
+  // trial's first pass refuses it; its second pass can merge it only with an attempt left
+  // (max_attempts 1 spends the one attempt in the first pass) and a bound over the weld's error.
+  const std::vector<int> regions{0, 0, 1, 1};
+  struct Case {
+    int trial_attempts;
+    double trial_bound;
+    bool merged;
+  };
+  for (const Case c : {Case{0, -1, false}, Case{2, -1, false}, Case{0, 10, false}, Case{2, 10, true}}) {
+    const std::string what = "the trial's max_attempts " + std::to_string(c.trial_attempts) +
+                             ", second_pass_local_bound " + std::to_string(c.trial_bound);
+    test::Run run(two_squares(false, 1.5));
+    MergeOptions o;
+    o.unconstrained_trial = true;
+    o.global_bound = 1;
+    o.local_bound = 1e-9;
+    o.second_pass = SecondPass::AcrossRegions;
+    o.second_pass_local_bound = 1e-9;
+    o.max_attempts = 1;
+    o.unconstrained_trial_max_attempts = c.trial_attempts;
+    o.unconstrained_trial_second_pass_local_bound = c.trial_bound;
+    ArapSolver solver;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, regions, o, solver, {});
+    EXPECT_TRUE(r.unconstrained_trial_run) << what;
+    EXPECT_EQ(r.unconstrained_trial_kept, c.merged) << what;
+    EXPECT_EQ(r.charts_out, c.merged ? 1u : 2u) << what;
+    EXPECT_NEAR(r.seam_left_length_3d(), c.merged ? 0.0 : 1.0, 1e-12) << what;
+    test::expect_valid_atlas(run);
+  }
+}
+
 /// A 64 x 64-texel square (two faces) on a 4096^2 page, around texel (2032, 2032), and a sliver
 /// (positions 1, 4, 2) on its right edge whose corner 4 lies `delta` texels off that edge: its UV
 /// altitude is delta, its UV area 32 delta. In 3D the sliver stands up (position 4 at z = 0.5).
