@@ -544,6 +544,19 @@ TEST(MergeEngineSteps, TheUnconstrainedTrialIsKeptOnlyWhenItLeavesLessSeam) {
   }
 }
 
+/// Runs run_merges on the two squares of `run` (two regions, the unconstrained trial on in `o`) and
+/// checks that the trial ran and, as `merged` says, was kept with one chart and no seam left, or not
+/// kept with two charts and the shared edge (3D length 1) left cut.
+void expect_trial_merged(test::Run& run, const std::vector<int>& regions, const MergeOptions& o, bool merged,
+                         const std::string& what) {
+  ArapSolver solver;
+  const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, regions, o, solver, {});
+  EXPECT_TRUE(r.unconstrained_trial_run) << what;
+  EXPECT_EQ(r.unconstrained_trial_kept, merged) << what;
+  EXPECT_EQ(r.charts_out, merged ? 1u : 2u) << what;
+  EXPECT_NEAR(r.seam_left_length_3d(), merged ? 0.0 : 1.0, 1e-12) << what;
+}
+
 TEST(MergeEngineSteps, TheTrialRefusesCollapsedTrianglesByItsOwnLimit) {
   // By hand: the two squares in two regions and no second pass, so only the unconstrained trial can
   // merge them; the right square is 1.5x denser, so the weld squeezes triangles of it (or stretches
@@ -566,12 +579,7 @@ TEST(MergeEngineSteps, TheTrialRefusesCollapsedTrianglesByItsOwnLimit) {
     o.global_bound = 1;
     o.min_singular_value = c.run_limit;
     o.unconstrained_trial_min_singular_value = c.trial_limit;
-    ArapSolver solver;
-    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, regions, o, solver, {});
-    EXPECT_TRUE(r.unconstrained_trial_run) << what;
-    EXPECT_EQ(r.unconstrained_trial_kept, c.merged) << what;
-    EXPECT_EQ(r.charts_out, c.merged ? 1u : 2u) << what;
-    EXPECT_NEAR(r.seam_left_length_3d(), c.merged ? 0.0 : 1.0, 1e-12) << what;
+    expect_trial_merged(run, regions, o, c.merged, what);
     if (c.merged) EXPECT_LT(test::smallest_singular_value(run), 0.95) << what;
     else EXPECT_NEAR(test::smallest_singular_value(run), 1.0, 1e-9) << what;
     test::expect_valid_atlas(run);
@@ -631,12 +639,7 @@ TEST(MergeEngineSteps, TheTrialMergesWithItsOwnAttemptsAndSecondPassBound) {
     o.max_attempts = 1;
     o.unconstrained_trial_max_attempts = c.trial_attempts;
     o.unconstrained_trial_second_pass_local_bound = c.trial_bound;
-    ArapSolver solver;
-    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, regions, o, solver, {});
-    EXPECT_TRUE(r.unconstrained_trial_run) << what;
-    EXPECT_EQ(r.unconstrained_trial_kept, c.merged) << what;
-    EXPECT_EQ(r.charts_out, c.merged ? 1u : 2u) << what;
-    EXPECT_NEAR(r.seam_left_length_3d(), c.merged ? 0.0 : 1.0, 1e-12) << what;
+    expect_trial_merged(run, regions, o, c.merged, what);
     test::expect_valid_atlas(run);
   }
 }
