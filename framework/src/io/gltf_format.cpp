@@ -97,11 +97,21 @@ LoadedModel GltfFormat::read_group(const std::vector<GltfInput>& inputs, const s
   }
 }
 
-TexcoordReadBack GltfFormat::texcoord_read_back(const PageWriteOptions& page_options) const {
-  DracoOutput draco = write_options.draco;
+GltfWriteOptions GltfFormat::write_options_for(const PageWriteOptions& page_options) const {
+  GltfWriteOptions wo = write_options;
   const json& oo = page_options.output_options;
-  if (oo.contains("draco")) draco = oo["draco"].get<std::string>() == "quantized" ? DracoOutput::Quantized : DracoOutput::None;
-  if (draco == DracoOutput::Quantized) return {};
+  if (oo.contains("draco")) {
+    const std::string d = oo["draco"].get<std::string>();
+    wo.draco = d == "lossless" ? DracoOutput::Lossless : d == "quantized" ? DracoOutput::Quantized : DracoOutput::None;
+  }
+  if (oo.contains("draco_position_bits")) wo.draco_position_bits = oo["draco_position_bits"].get<int>();
+  if (oo.contains("draco_texcoord_bits")) wo.draco_texcoord_bits = oo["draco_texcoord_bits"].get<int>();
+  if (oo.contains("draco_generic_bits")) wo.draco_generic_bits = oo["draco_generic_bits"].get<int>();
+  return wo;
+}
+
+TexcoordReadBack GltfFormat::texcoord_read_back(const PageWriteOptions& page_options) const {
+  if (write_options_for(page_options).draco == DracoOutput::Quantized) return {};
   // note: the writer stores (u, 1 - v) as floats; a reader turns the second back with 1 - v.
   return [](const Vec2& t) {
     return Vec2(stored_as_float32(t.x()), 1.0 - stored_as_float32(1.0 - t.y()));
@@ -121,15 +131,7 @@ GltfOutput GltfFormat::build(const LoadedModel& in, const TexturedMesh& out_mesh
   paths.map_path = [root, who](const std::string& f) { return under_root(f, root, who); };
   size_t page_bytes = 0;
   for (const auto& e : enc) page_bytes += e.bytes.size();
-  GltfWriteOptions wo = write_options;
-  const json& oo = page_options.output_options;
-  if (oo.contains("draco")) {
-    const std::string d = oo["draco"].get<std::string>();
-    wo.draco = d == "lossless" ? DracoOutput::Lossless : d == "quantized" ? DracoOutput::Quantized : DracoOutput::None;
-  }
-  if (oo.contains("draco_position_bits")) wo.draco_position_bits = oo["draco_position_bits"].get<int>();
-  if (oo.contains("draco_texcoord_bits")) wo.draco_texcoord_bits = oo["draco_texcoord_bits"].get<int>();
-  if (oo.contains("draco_generic_bits")) wo.draco_generic_bits = oo["draco_generic_bits"].get<int>();
+  const GltfWriteOptions wo = write_options_for(page_options);
   try {
     GltfOutput o = write_gltf(src->model, out_mesh, enc, paths, wo);
     o.report["page_bytes"] = page_bytes;

@@ -1,6 +1,7 @@
 // Format registry, page encodings and the direct output seam (see texdefrag/io/model_format.h).
 #include "texdefrag/io/model_format.h"
 
+#include "texdefrag/core/uv_overlap.h"
 #include "texdefrag/io/jpeg_quality.h"
 #include "texdefrag/io/gltf_format.h"
 #include "texdefrag/io/obj.h"
@@ -18,13 +19,12 @@ namespace fs = std::filesystem;
 namespace texdefrag {
 namespace {
 
-/// Twice the signed area of a face's UV triangle from its texture coordinates mapped by `uv`.
+/// Orientation of a face's UV triangle from its texture coordinates mapped by `uv`: +1, -1 or 0
+/// (core/uv_overlap.h's exact orient2d).
 template <class UV>
-double uv_turn(const TexturedMesh& m, const Face& f, const UV& uv) {
-  const Vec2 a = uv(m.texcoords[static_cast<size_t>(f.vt[0])]);
-  const Vec2 b = uv(m.texcoords[static_cast<size_t>(f.vt[1])]);
-  const Vec2 c = uv(m.texcoords[static_cast<size_t>(f.vt[2])]);
-  return (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+int uv_turn(const TexturedMesh& m, const Face& f, const UV& uv) {
+  return orient2d(uv(m.texcoords[static_cast<size_t>(f.vt[0])]), uv(m.texcoords[static_cast<size_t>(f.vt[1])]),
+                  uv(m.texcoords[static_cast<size_t>(f.vt[2])]));
 }
 
 }  // namespace
@@ -45,10 +45,8 @@ size_t faces_turned_by(const TexturedMesh& in, const TexturedMesh& out, const Te
     const Face& f = out.faces[i];
     if (f.vt[0] == kNoIndex) continue;
     if (i < in.faces.size() && (in.faces[i].vt[0] == kNoIndex || uv_turn(in, in.faces[i], same) == 0)) continue;
-    const double given = uv_turn(out, f, same);
-    if (given == 0) continue;
-    const double read = uv_turn(out, f, read_back);
-    turned += given > 0 ? !(read > 0) : !(read < 0);
+    const int given = uv_turn(out, f, same);
+    if (given != 0) turned += uv_turn(out, f, read_back) != given;
   }
   return turned;
 }

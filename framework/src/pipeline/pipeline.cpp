@@ -527,15 +527,21 @@ ResampleOptions resample_options(const Options& t) {
   return ro;
 }
 
+/// used[p] = 1 when some face of `mesh` lies on page p (one entry per page).
+std::vector<uint8_t> used_pages(const TexturedMesh& mesh) {
+  std::vector<uint8_t> used(mesh.pages.size(), 0);
+  for (const Face& f : mesh.faces)
+    if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
+  return used;
+}
+
 /// The pixels of every input page some face uses (the others stay empty), decoded side by side on
 /// the framework's threads: each page's pixels depend on its file alone, and a failure is the
 /// lowest-numbered failing page's, as when decoded in turn (parallel_for). t016_L19's 24 pages
 /// took 0.17 s in turn, one core idle.
 std::vector<Image> decode_used_pages(const LoadedModel& model) {
   const TexturedMesh& mesh = model.mesh;
-  std::vector<uint8_t> used(mesh.pages.size(), 0);
-  for (const Face& f : mesh.faces)
-    if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
+  const std::vector<uint8_t> used = used_pages(mesh);
   std::vector<size_t> todo;
   for (size_t p = 0; p < mesh.pages.size(); ++p)
     if (used[p]) todo.push_back(p);
@@ -562,9 +568,7 @@ class EarlyPages {
   EarlyPages(const LoadedModel& model, const RunOptions& options) : model_(model) {
     if (thread_count() <= 1 || !options.stop_after.empty()) return;
     size_t bytes = 0;
-    std::vector<uint8_t> used(model.mesh.pages.size(), 0);
-    for (const Face& f : model.mesh.faces)
-      if (f.page != kNoPage) used[static_cast<size_t>(f.page)] = 1;
+    const std::vector<uint8_t> used = used_pages(model.mesh);
     for (size_t p = 0; p < used.size(); ++p) {
       const Page& page = model.mesh.pages[p];
       if (!used[p]) continue;

@@ -1351,6 +1351,12 @@ class SquareTetris : public Packer {
     return out;
   }
 
+  /// The first count of charts after which a logged trial's page 0 (its areas, TrialLog) needed at
+  /// least `area` (or a second page); areas.size() + 1 when it never did.
+  static size_t charts_to_reach(const std::vector<double>& areas, double area) {
+    return static_cast<size_t>(std::find_if(areas.begin(), areas.end(), [&](double v) { return v >= area; }) - areas.begin()) + 1;
+  }
+
   /// The number of charts after which p's width trial in tail order `name` (o) at `width` is bound
   /// to stop as hopeless against inc's result, or 0 when it is not known to be; p is inc's charts
   /// with chart `turned` turned, packed against inc's result (repack_turned). inc (one page) logged
@@ -1367,7 +1373,7 @@ class SquareTetris : public Packer {
     const auto io = inc.log->orders.find(name);
     if (log == inc.log->areas.end() || io == inc.log->orders.end()) return 0;
     const std::vector<double>& a = log->second;
-    const size_t k = static_cast<size_t>(std::find_if(a.begin(), a.end(), [&](double v) { return v >= inc.r.total_area(); }) - a.begin()) + 1;
+    const size_t k = charts_to_reach(a, inc.r.total_area());
     if (k > a.size() || k > o.size() || io->second.size() != o.size() ||
         !std::equal(o.begin(), o.begin() + static_cast<long>(k), io->second.begin()))
       return 0;
@@ -1396,8 +1402,7 @@ class SquareTetris : public Packer {
     if (placed == inc.log->placed.end() || areas == inc.log->areas.end() || io == inc.log->orders.end() ||
         io->second.size() != o.size())
       return out;
-    const std::vector<double>& a = areas->second;
-    const size_t reach = static_cast<size_t>(std::find_if(a.begin(), a.end(), [&](double v) { return v >= inc.r.total_area(); }) - a.begin()) + 1;
+    const size_t reach = charts_to_reach(areas->second, inc.r.total_area());
     for (size_t n = 0; n < placed->second.size() && n < o.size() && n < reach; ++n) {
       if (o[n] != io->second[n] || o[n] == turned || placed->second[n].page != 0) break;
       out.push_back(placed->second[n]);

@@ -36,6 +36,9 @@ class GltfFormat : public ModelFormat {
   /// Float32 coordinates, v stored as 1 - v (glTF's origin is top left); empty with Draco output
   /// `quantized` (the quantisation grid is the encoder's).
   TexcoordReadBack texcoord_read_back(const PageWriteOptions& page_options) const override;
+  /// write_options with the configuration's `output.draco*` keys (page_options.output_options)
+  /// where given: what build() writes with.
+  GltfWriteOptions write_options_for(const PageWriteOptions& page_options) const;
 
   GltfWriteOptions write_options;  ///< Draco output; set from the configuration by the caller
 };
