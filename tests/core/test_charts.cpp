@@ -191,6 +191,34 @@ TEST(Distortion, ScaleAndFlip) {
   EXPECT_FALSE(uv_jacobian(zero, s2, J));
 }
 
+TEST(Distortion, MirrorGroupsReadAReflectedPieceThroughTheMirrorAndAFoldedOneAsFlipped) {
+  // Output chart 0: input chart 1 laid out as is (two faces, turn +), input chart 2 reflected
+  // (det J < 0) but turning like chart 0 (turn +): a welded mirror image. Output chart 5: input
+  // chart 3 reflected and turning against the rest of chart 5 (area 4 against 1): a folded piece.
+  const Vec2 ccw[3] = {{0, 0}, {1, 0}, {0, 1}};
+  const Eigen::Matrix2d identity = Eigen::Matrix2d::Identity(), mirror = Eigen::Vector2d(1, -1).asDiagonal();
+  const Vec2 cw[3] = {{0, 0}, {0, 1}, {1, 0}};
+  MirrorGroups g;
+  g.add(0, 1, 2.0, identity, ccw);
+  g.add(0, 1, 2.0, identity, ccw);
+  g.add(0, 2, 1.0, mirror, ccw);
+  g.add(5, 4, 4.0, identity, ccw);
+  g.add(5, 3, 1.0, mirror, cw);
+  EXPECT_FALSE(g.mirrored(0, 1));
+  EXPECT_TRUE(g.mirrored(0, 2));
+  EXPECT_FALSE(g.mirrored(5, 3));  // turns against its chart: its faces count as flipped
+  EXPECT_FALSE(g.mirrored(5, 4));
+  EXPECT_FALSE(g.mirrored(7, 1));  // never added
+  // The sums: a flipped face counts in the ARAP mean, not in the symmetric Dirichlet one.
+  DistortionSums sums;
+  sums.add(2.0, identity);
+  sums.add(1.0, mirror);
+  EXPECT_EQ(sums.flipped, 1u);
+  EXPECT_DOUBLE_EQ(sums.weight, 3.0);
+  EXPECT_DOUBLE_EQ(sums.mean_arap(), (2.0 * 0 + 1.0 * 4) / 3.0);  // mirror: s = (1, -1), (1-1)^2 + (-1-1)^2 = 4
+  EXPECT_DOUBLE_EQ(sums.mean_symmetric_dirichlet(), 4.0);          // identity alone: 1 + 1 + 1 + 1
+}
+
 TEST(ChartsReal, InvariantsOnRealTiles) {
   const auto models = texdefrag::testing::real_models(25000);
   if (models.empty()) GTEST_SKIP() << "shared data absent: ../shared/data";

@@ -94,44 +94,31 @@ DistortionMetrics uv_distortion(const TexturedMesh& in, const TexturedMesh& out,
   // whose faces reverse orientation over most of its input UV area while its output triangles turn
   // like the rest of its output chart's (area-weighted majority) is measured mirrored (y -> -y);
   // its faces whose orientation still disagrees, and the faces of a group turning against its
-  // chart (a folded piece), are the flipped ones. core/distortion.h applies the same rule.
+  // chart (a folded piece), are the flipped ones: core/distortion.h's MirrorGroups, the rule
+  // atlas_distortion applies too.
   const Topology otopo = build_topology(out);
   const ChartSet ocharts = build_charts(out, otopo);
   const Topology itopo = build_topology(in);
   const ChartSet icharts = build_charts(in, itopo);
-  std::map<std::pair<int, int>, std::pair<double, double>> group_sign;
-  std::vector<double> chart_turn(static_cast<size_t>(ocharts.atlas.num_charts), 0.0);
-  auto group = [&](size_t f, int fo) {
-    return std::make_pair(ocharts.atlas.face_chart[static_cast<size_t>(fo)], icharts.atlas.face_chart[f]);
-  };
+  auto out_chart = [&](int fo) { return ocharts.atlas.face_chart[static_cast<size_t>(fo)]; };
+  MirrorGroups groups;
   for (size_t f = 0; f < in.faces.size(); ++f) {
     Vec2 o[3], n[3];
     int fo;
     Eigen::Matrix2d J;
     if (!matched_uvs(in, out, match, f, o, n, fo) || !uv_jacobian(o, n, J)) continue;
-    const double det = J.determinant(), w = uv_area(o);
-    const double turn = (n[1] - n[0]).x() * (n[2] - n[0]).y() - (n[1] - n[0]).y() * (n[2] - n[0]).x();
-    auto& g = group_sign[group(f, fo)];
-    g.first += w * ((det > 0) - (det < 0));
-    g.second += w * ((turn > 0) - (turn < 0));
-    chart_turn[static_cast<size_t>(ocharts.atlas.face_chart[static_cast<size_t>(fo)])] += w * ((turn > 0) - (turn < 0));
+    groups.add(out_chart(fo), icharts.atlas.face_chart[f], uv_area(o), J, n);
   }
-  auto mirrored_group = [&](size_t f, int fo) {
-    auto it = group_sign.find(group(f, fo));
-    if (it == group_sign.end() || !(it->second.first < 0)) return false;
-    const double ct = chart_turn[static_cast<size_t>(ocharts.atlas.face_chart[static_cast<size_t>(fo)])];
-    return (it->second.second > 0) == (ct > 0) && it->second.second != 0 && ct != 0;
-  };
   DistortionMetrics d;
-  std::vector<char> chart_mirrored(chart_turn.size(), 0);
-  double wsd = 0;
+  DistortionSums sums;
+  std::vector<char> chart_mirrored(static_cast<size_t>(ocharts.atlas.num_charts), 0);
   for (size_t f = 0; f < in.faces.size(); ++f) {
     Vec2 o[3], n[3];
     int fo;
     if (!matched_uvs(in, out, match, f, o, n, fo)) continue;
     ++d.faces;
-    if (mirrored_group(f, fo)) {
-      chart_mirrored[static_cast<size_t>(ocharts.atlas.face_chart[static_cast<size_t>(fo)])] = 1;
+    if (groups.mirrored(out_chart(fo), icharts.atlas.face_chart[f])) {
+      chart_mirrored[static_cast<size_t>(out_chart(fo))] = 1;
       ++d.mirrored_faces;
       for (Vec2& p : n) p.y() = -p.y();
     }
@@ -141,17 +128,12 @@ DistortionMetrics uv_distortion(const TexturedMesh& in, const TexturedMesh& out,
       ++d.zero_area_input;
       continue;
     }
-    const double det = J.determinant();
-    if (det <= 0) ++d.flipped;
-    d.arap += w * arap_error(J);
-    d.weight += w;
-    if (det > 0) {
-      d.symmetric_dirichlet += w * symmetric_dirichlet(J);
-      wsd += w;
-    }
+    sums.add(w, J);
   }
-  if (d.weight > 0) d.arap /= d.weight;
-  if (wsd > 0) d.symmetric_dirichlet /= wsd;
+  d.arap = sums.mean_arap();
+  d.symmetric_dirichlet = sums.mean_symmetric_dirichlet();
+  d.flipped = sums.flipped;
+  d.weight = sums.weight;
   for (char m : chart_mirrored) d.mirrored_charts += m;
   return d;
 }

@@ -59,35 +59,50 @@ double tri_area(const Vec2 o[3]) {
 
 }  // namespace
 
+namespace {
+int sign(double x) { return (x > 0) - (x < 0); }
+}  // namespace
+
+void MirrorGroups::add(int out_chart, int in_chart, double w, const Eigen::Matrix2d& J, const Vec2 now[3]) {
+  const double turn = (now[1] - now[0]).x() * (now[2] - now[0]).y() - (now[1] - now[0]).y() * (now[2] - now[0]).x();
+  auto& g = group_sign_[{out_chart, in_chart}];
+  g.first += w * sign(J.determinant());
+  g.second += w * sign(turn);
+  chart_turn_[out_chart] += w * sign(turn);
+}
+
+bool MirrorGroups::mirrored(int out_chart, int in_chart) const {
+  // A group that turns against its chart (a folded face or piece) is not mirrored: its faces
+  // count as flipped.
+  auto it = group_sign_.find({out_chart, in_chart});
+  if (it == group_sign_.end() || !(it->second.first < 0)) return false;
+  auto ct = chart_turn_.find(out_chart);
+  const double turn = ct == chart_turn_.end() ? 0.0 : ct->second;
+  return (it->second.second > 0) == (turn > 0) && it->second.second != 0 && turn != 0;
+}
+
+void DistortionSums::add(double w, const Eigen::Matrix2d& J) {
+  const double det = J.determinant();
+  if (det <= 0) ++flipped;
+  arap += w * arap_error(J);
+  weight += w;
+  if (det > 0) {
+    symmetric_dirichlet += w * texdefrag::symmetric_dirichlet(J);
+    symmetric_dirichlet_weight += w;
+  }
+}
+
 DistortionSummary atlas_distortion(const TexturedMesh& mesh, const Atlas& atlas, const std::vector<int>& input_face_chart) {
   if (input_face_chart.size() != mesh.faces.size()) return atlas_distortion(mesh, atlas);
-  // Per group (output chart, input chart): area-weighted sign of det J, and of the output UV
-  // triangles' turn (corner order); per output chart: the latter over all its faces.
-  std::map<std::pair<int, int>, std::pair<double, double>> group_sign;
-  std::map<int, double> chart_turn;
-  auto group = [&](size_t f) { return std::make_pair(atlas.face_chart[f], input_face_chart[f]); };
+  MirrorGroups groups;
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     Vec2 o[3], n[3];
     Eigen::Matrix2d J;
     if (!face_uvs(mesh, atlas, f, o, n) || !uv_jacobian(o, n, J)) continue;
-    const double det = J.determinant(), w = tri_area(o);
-    const double turn = (n[1] - n[0]).x() * (n[2] - n[0]).y() - (n[1] - n[0]).y() * (n[2] - n[0]).x();
-    auto& g = group_sign[group(f)];
-    g.first += w * ((det > 0) - (det < 0));
-    g.second += w * ((turn > 0) - (turn < 0));
-    chart_turn[atlas.face_chart[f]] += w * ((turn > 0) - (turn < 0));
+    groups.add(atlas.face_chart[f], input_face_chart[f], tri_area(o), J, n);
   }
-  // A group is mirrored when most of it reverses its input's orientation while it turns like the
-  // rest of its output chart (a reflected, consistently welded chart); a group that turns against
-  // its chart (a folded face or piece) is not, and its faces count as flipped.
-  auto mirrored_group = [&](size_t f) {
-    auto it = group_sign.find(group(f));
-    if (it == group_sign.end() || !(it->second.first < 0)) return false;
-    const double ct = chart_turn[atlas.face_chart[f]];
-    return (it->second.second > 0) == (ct > 0) && it->second.second != 0 && ct != 0;
-  };
   DistortionSummary r;
-  double wsd = 0;
+  DistortionSums sums;
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     Vec2 o[3], n[3];
     if (!face_uvs(mesh, atlas, f, o, n)) continue;
@@ -97,21 +112,16 @@ DistortionSummary atlas_distortion(const TexturedMesh& mesh, const Atlas& atlas,
       ++r.zero_area_input;
       continue;
     }
-    if (mirrored_group(f)) {
+    if (groups.mirrored(atlas.face_chart[f], input_face_chart[f])) {
       ++r.mirrored;
       J.row(1) = -J.row(1);  // measured through the mirror y -> -y
     }
-    const double det = J.determinant();
-    if (det <= 0) ++r.flipped;
-    r.arap += w * arap_error(J);
-    r.weight += w;
-    if (det > 0) {
-      r.symmetric_dirichlet += w * symmetric_dirichlet(J);
-      wsd += w;
-    }
+    sums.add(w, J);
   }
-  if (r.weight > 0) r.arap /= r.weight;
-  if (wsd > 0) r.symmetric_dirichlet /= wsd;
+  r.arap = sums.mean_arap();
+  r.symmetric_dirichlet = sums.mean_symmetric_dirichlet();
+  r.flipped = sums.flipped;
+  r.weight = sums.weight;
   return r;
 }
 

@@ -14,6 +14,8 @@
 #include "texdefrag/core/mesh.h"
 
 #include <Eigen/Core>
+#include <map>
+#include <utility>
 
 namespace texdefrag {
 
@@ -32,6 +34,38 @@ struct DistortionSummary {
   size_t mirrored = 0;             ///< faces measured through the mirror (their group is a mirror image)
   size_t zero_area_input = 0;      ///< faces with zero original UV area (weight 0)
   double weight = 0;               ///< total original UV area (texels^2)
+};
+
+/// The mirror rule of atlas_distortion (and of eval's uv_distortion, which measures a written model
+/// the same way): faces are grouped by (output chart, input chart); a group whose faces reverse
+/// their input's orientation over most of its input UV area (area-weighted sign of det J < 0) while
+/// its output UV triangles turn like the rest of its output chart's (area-weighted majority; neither
+/// sum zero) is measured through the mirror y -> -y. Feed every measured face with add(), then ask
+/// mirrored().
+class MirrorGroups {
+ public:
+  /// One face: its output and input chart, input UV area w, map J (input -> output UV) and
+  /// output UV triangle `now` (its corner order gives the turn).
+  void add(int out_chart, int in_chart, double w, const Eigen::Matrix2d& J, const Vec2 now[3]);
+  /// Whether the faces of group (out_chart, in_chart) are measured through the mirror.
+  bool mirrored(int out_chart, int in_chart) const;
+
+ private:
+  std::map<std::pair<int, int>, std::pair<double, double>> group_sign_;  ///< (sum w sign det, sum w sign turn)
+  std::map<int, double> chart_turn_;                                   ///< per output chart: sum w sign turn
+};
+
+/// Area-weighted sums of the measure over faces with input UV area w > 0; J is taken as given
+/// (already through the mirror where the face's group is mirrored). det J <= 0 counts as flipped
+/// and is left out of the symmetric Dirichlet mean (infinite there), not out of the ARAP mean.
+struct DistortionSums {
+  double arap = 0, symmetric_dirichlet = 0, symmetric_dirichlet_weight = 0, weight = 0;
+  size_t flipped = 0;
+  void add(double w, const Eigen::Matrix2d& J);
+  double mean_arap() const { return weight > 0 ? arap / weight : 0; }
+  double mean_symmetric_dirichlet() const {
+    return symmetric_dirichlet_weight > 0 ? symmetric_dirichlet / symmetric_dirichlet_weight : 0;
+  }
 };
 
 /// Distortion of atlas UVs (texels) against the mesh's input UVs, over textured faces.
