@@ -377,7 +377,7 @@ void run_packer(const Lab& lab, const std::string& spec, int index) {
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   double mp = 0;
   for (const auto& ps : pc.layout.pages) mp += static_cast<double>(ps.width) * ps.height / 1e6;
-  std::printf("%s\t%s\t%d\t%.3f\t%.3f\t%.2f\t%.0f\t%.0f", lab.model.c_str(), spec.c_str(), lab.merged->num_charts,
+  std::printf("%s\t%s\t%d\t%.3f\t%.4f\t%.2f\t%.0f\t%.0f", lab.model.c_str(), spec.c_str(), lab.merged->num_charts,
               rep.value("packing_efficiency", 0.0), mp, lab.in_mp, ms, cpu_ms);
   if (std::getenv("PACK_LAB_HASH"))
     std::printf("\tlayout %016llx", static_cast<unsigned long long>(layout_hash(pc.layout)));

@@ -941,11 +941,7 @@ class SquareTetris : public Packer {
                                    "packing is kept when it needs fewer pages or at least this share less page area "
                                    "(1: off)")
                             .range(0, 1));
-    i.options.push_back(opt_int("width_refine", 8,
-                                "With an outline tail of at most order_trials_max_charts charts and width_trials > 1, the page widths 1 .. width_refine "
-                                "page_multiple steps narrower and wider than the best width are packed too (best tail order), "
-                                "keeping the smallest result (0: off)")
-                            .range(0, 64));
+    for (OptionSpec& o : width_options()) i.options.push_back(std::move(o));
     // note: default from measurements (docs/packers.md, "Block grid"): Cedar Creek levels 2-3
     // (JPEG pages at the input's bytes) median loss against PNG pages 0.78 -> 0.72 dB with the
     // trial kept where it costs no page area; the aligned layout alone costs 0-4% of page area.
@@ -962,6 +958,22 @@ class SquareTetris : public Packer {
     for (OptionSpec& o : angle_options()) i.options.push_back(std::move(o));
     i.create = [] { return std::make_unique<SquareTetris>(); };
     return i;
+  }
+
+  /// The page-width options beyond width_trials (pack_orders' refinement, pack_wide).
+  static std::vector<OptionSpec> width_options() {
+    std::vector<OptionSpec> out;
+    out.push_back(opt_int("wide_page_trials", 2,
+                          "With an outline tail of at most order_trials_max_charts charts and width_trials > 1, pages "
+                          "about 2^k times as wide as high (k = 1 .. wide_page_trials) are packed too, in every tail "
+                          "order, after the other widths; a smaller result is kept and its width refined (0: off)")
+                      .range(0, 6));
+    out.push_back(opt_int("width_refine", 8,
+                          "With an outline tail of at most order_trials_max_charts charts and width_trials > 1, the page widths 1 .. width_refine "
+                          "page_multiple steps narrower and wider than the best width are packed too (best tail order), "
+                          "keeping the smallest result (0: off)")
+                      .range(0, 64));
+    return out;
   }
 
   /// The angle search's options (search_angles).
@@ -1242,6 +1254,7 @@ class SquareTetris : public Packer {
     size_t tail_charts = 0, orders = 0, width_trials = 0;
     int width = 0;  ///< page width of the result
     bool tail_skipped = false, refined = false;
+    bool wide = false;  ///< a wide-page trial was kept (pack_wide)
     std::string order;
     long long outline = 0, padded = 0;  ///< outline cells before and after dilation (tail masks)
     PackPlan plan;  ///< the plan packed (its masks serve the block-grid trial; cleared after it)
@@ -1534,9 +1547,66 @@ class SquareTetris : public Packer {
                                           beside(p.order, extra));
       if (packing::better_result(t, r)) r = std::move(t), best_width = w, p.refined = true;
     }
+    std::vector<int> tried = widths;
+    tried.insert(tried.end(), extra.begin(), extra.end());
+    const size_t wide = pack_wide(ctx, p, s, orders, best_width, best_o, tried, rival, inc, turned);
     p.width = best_width;
-    p.width_trials = widths.size() * orders.size() + extra.size();
+    p.width_trials = widths.size() * orders.size() + extra.size() + wide;
     count_outlines(p);
+  }
+
+  /// The wide-page trials (option wide_page_trials), after pack_orders' trials and refinement:
+  /// p's charts packed in every tail order `orders` at wide_widths (those not in `tried`), against
+  /// p.r; when one is smaller, p takes it (p.order, best_width, best_o, p.wide) and the widths
+  /// around it are refined (refine_widths, not in `tried`). rival, inc, turned: as for pack_orders.
+  /// Returns the width trials packed. Never a larger result than without them.
+  /// note: the width trials are near-square pages (sqrt(need / e)); with few large charts the
+  /// bottom-left fill of a wider page often ends lower (Cedar lod1_room8: 448 x 288 -> 736 x 160,
+  /// 0.1290 -> 0.1178 MP; docs/packers.md, "Wide pages").
+  size_t pack_wide(const StageContext& ctx, Packed& p, const CommonSettings& s,
+                   const std::vector<std::pair<std::string, std::vector<int>>>& orders, int& best_width,
+                   const std::vector<int>*& best_o, std::vector<int>& tried, const PackResult* rival, const Packed* inc,
+                   int turned) const {
+    const std::vector<int> wide = wide_widths(p.in, s, p.plan.need, tried, p.tail_charts, p.tail_skipped);
+    if (wide.empty()) return 0;
+    tried.insert(tried.end(), wide.begin(), wide.end());
+    size_t trials = wide.size() * orders.size();
+    bool won = false;
+    for (const auto& [name, o] : orders) {
+      int w = 0;
+      PackResult t = packing::pack_widths(p.in, s, wide, trial(p, s, name, o, rival ? nullptr : &ctx, inc, turned), &w, &p.r);
+      if (packing::better_result(t, p.r)) p.r = std::move(t), p.order = name, best_width = w, best_o = &o, won = true;
+    }
+    if (!won) return trials;
+    p.wide = true;
+    const std::vector<int> extra = refine_widths(p.in, s, tried, best_width, p.tail_charts, p.tail_skipped);
+    if (extra.empty()) return trials;
+    int w = 0;
+    PackResult t = packing::pack_widths(p.in, s, extra, trial(p, s, p.order, *best_o, rival ? nullptr : &ctx, inc, turned), &w, &p.r);
+    if (packing::better_result(t, p.r)) p.r = std::move(t), best_width = w, p.refined = true;
+    return trials + extra.size();
+  }
+
+  /// The widths of the wide-page trials: for k = 1 .. wide_page_trials, sqrt(need x 2^k / e) for e
+  /// in {0.85, 0.7} (pages about 2^k times as wide as high), rounded as the width trials are
+  /// (initial_page_width), those not in `tried`; none without an outline tail, when the tail is
+  /// skipped or holds more than order_trials_max_charts charts, with one width trial or with
+  /// power-of-two pages.
+  std::vector<int> wide_widths(const PackInput& in, const CommonSettings& s, double need, const std::vector<int>& tried,
+                               size_t tail_charts, bool tail_skipped) const {
+    std::vector<int> out;
+    const long long max_charts = options().get_int("order_trials_max_charts");
+    if (tail_skipped || tail_charts == 0 || s.power_of_two || s.width_trials <= 1 || max_charts <= 0 ||
+        tail_charts > static_cast<size_t>(max_charts))
+      return out;
+    const int lo = packing::min_page_width(in, s);
+    for (long long k = 1; k <= options().get_int("wide_page_trials"); ++k)
+      for (const double e : {0.85, 0.7}) {
+        const int w = packing::initial_page_width(std::ldexp(need, static_cast<int>(k)), lo, e, s);
+        if (std::find(tried.begin(), tried.end(), w) == tried.end() && std::find(out.begin(), out.end(), w) == out.end())
+          out.push_back(w);
+      }
+    return out;
   }
 
   /// One complete packing of ctx.atlas with settings s. grid: the block-grid trial (on), prepared
@@ -1835,6 +1905,7 @@ class SquareTetris : public Packer {
     rep["tail_order"] = best.order;
     rep["page_width_trials"] = best.width_trials;
     rep["page_width_refined"] = best.refined;
+    rep["page_width_wide"] = best.wide;
     rep["free_trial_kept"] = freed;
     rep["block_grid_kept"] = grid_kept;
     rep["block_grid_width_trials"] = grid_trials;

@@ -278,9 +278,10 @@ TEST(PackersSquareTetris, WidthRefineKeepsTheSmallestPackingAndStopsBeyondTheTai
       if (i % 2 == 0) polys.push_back({{x, y}, {x + a, y}, {x, y + b}});
       else polys.push_back({{x, y}, {x + a, y}, {x + a, y + t}, {x + t, y + t}, {x + t, y + b}, {x, y + b}});
     }
-    auto plain = run_packer(kName, polygon_mesh(polys, 4096), {{"width_refine", 0}});
+    // (wide_page_trials 0: the counts below are those of the width trials and the refinement)
+    auto plain = run_packer(kName, polygon_mesh(polys, 4096), {{"width_refine", 0}, {"wide_page_trials", 0}});
     EXPECT_FALSE(plain->report.at("page_width_refined").get<bool>());
-    auto refined = run_packer(kName, polygon_mesh(polys, 4096), nlohmann::json::object());
+    auto refined = run_packer(kName, polygon_mesh(polys, 4096), {{"wide_page_trials", 0}});
     expect_valid_layout(*refined, 4);
     EXPECT_GT(refined->report.at("page_width_trials").get<int>(), plain->report.at("page_width_trials").get<int>());
     EXPECT_LE(area(*refined), area(*plain));
@@ -291,13 +292,44 @@ TEST(PackersSquareTetris, WidthRefineKeepsTheSmallestPackingAndStopsBeyondTheTai
       EXPECT_EQ(refined->ctx.layout.wedge_uv, plain->ctx.layout.wedge_uv);
     }
     const int tail = plain->report.at("tail_charts").get<int>();
-    auto beyond = run_packer(kName, polygon_mesh(polys, 4096), {{"order_trials_max_charts", tail - 1}});
+    auto beyond = run_packer(kName, polygon_mesh(polys, 4096), {{"order_trials_max_charts", tail - 1}, {"wide_page_trials", 0}});
     EXPECT_FALSE(beyond->report.at("page_width_refined").get<bool>());
     EXPECT_EQ(beyond->report.at("page_width_trials").get<int>(),
               plain->report.at("page_width_trials").get<int>() / plain->report.at("tail_orders_tried").get<int>());
   }
   std::printf("refined width kept on %d of 6 sets\n", refined_wins);
   EXPECT_GE(refined_wins, 1);
+}
+
+TEST(PackersSquareTetris, WidePageTrialsKeepAWidePageOnlyWhenSmaller) {
+  // Three 100 x 90 rectangles, no quarter turns, gutter 2 (boxes 102 x 92: need 28152 texels^2),
+  // pages rounded to 32, no refinement. The width trials sqrt(28152 / e), e = 1 .. 0.6, round to
+  // 192 and 224: at 192 they stand in a column (102 x 276 -> page 128 x 288 = 36864), at 224 two
+  // per row (204 x 184 -> 224 x 192). Wide pages: aspect 2 gives 288 (two per row again), aspect 4
+  // gives 384 and 416, where the three lie in a row (306 x 92 -> page 320 x 96 = 30720).
+  const std::vector<std::vector<Vec2>> polys = {{{0, 0}, {100, 0}, {100, 90}, {0, 90}},
+                                                {{0, 100}, {100, 100}, {100, 190}, {0, 190}},
+                                                {{0, 200}, {100, 200}, {100, 290}, {0, 290}}};
+  auto with = [&](int wide) {
+    return run_packer(kName, polygon_mesh(polys, 512),
+                      {{"gutter", 2}, {"page_multiple", 32}, {"allow_rotation", false}, {"width_refine", 0},
+                       {"block_grid", 0}, {"wide_page_trials", wide}});
+  };
+  auto off = with(0), two = with(1), four = with(2);
+  EXPECT_EQ(off->report.at("page_sizes"), json::parse("[[128, 288]]"));
+  EXPECT_FALSE(off->report.at("page_width_wide").get<bool>());
+  EXPECT_EQ(two->report.at("page_sizes"), json::parse("[[128, 288]]"));  // tried, not smaller: not kept
+  EXPECT_FALSE(two->report.at("page_width_wide").get<bool>());
+  EXPECT_EQ(two->ctx.layout.wedge_uv, off->ctx.layout.wedge_uv);
+  EXPECT_GT(two->report.at("page_width_trials").get<int>(), off->report.at("page_width_trials").get<int>());
+  EXPECT_EQ(four->report.at("page_sizes"), json::parse("[[320, 96]]"));
+  EXPECT_TRUE(four->report.at("page_width_wide").get<bool>());
+  expect_valid_layout(*four, 2);
+  // the wide pages only join the trials that order_trials_max_charts allows
+  auto beyond = run_packer(kName, polygon_mesh(polys, 512),
+                           {{"gutter", 2}, {"page_multiple", 32}, {"allow_rotation", false}, {"width_refine", 0},
+                            {"block_grid", 0}, {"order_trials_max_charts", 2}});
+  EXPECT_EQ(beyond->report.at("page_sizes"), json::parse("[[128, 288]]"));
 }
 
 namespace {
