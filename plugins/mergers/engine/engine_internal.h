@@ -403,9 +403,16 @@ class Engine {
   void open_thin_faces();
   /// open_thin_faces' change to the atlas for thin face fi: its corner k moved out from its edge
   /// (i, j), on its rest shape's side, to the height that gives the triangle the smallest altitude
-  /// kThinAltitude; kept (true) only when fi then turns as its rest shape and no other face using
-  /// that wedge closes below min(its altitude before, kThinAltitude), else undone (false).
-  bool open_thin_wedge(int fi, int i, int j, int k);
+  /// kThinAltitude; kept (true) only when fi then turns as its rest shape, no other face using
+  /// that wedge closes below min(its altitude before, kThinAltitude) and no face of the wedge comes
+  /// to overlap a triangle of `chart_faces` (fi's chart, every textured face) that it did not
+  /// overlap before; else undone (false).
+  bool open_thin_wedge(int fi, int i, int j, int k, const std::vector<int>& chart_faces);
+  /// Whether wedge w, moved from `old` to where it is now, makes one of `moved` (the faces of its
+  /// chart using it) overlap a triangle of `chart_faces` (or another of `moved`) that the pair did
+  /// not overlap with w at `old`.
+  bool wedge_move_adds_overlap(int w, const Vec2& old, const std::vector<int>& moved,
+                               const std::vector<int>& chart_faces) const;
   /// Smallest altitude (texels) of face f's current UV triangle, signed: negative when it turns
   /// against its rest shape (det J < 0).
   double oriented_altitude(int f) const;

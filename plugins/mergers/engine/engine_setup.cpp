@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <limits>
+#include <map>
 #include <numeric>
 #include <set>
 #include <stdexcept>
@@ -168,12 +169,24 @@ void Engine::open_thin_faces() {
   // note: opening a sliver may be refused because it would close a neighbouring sliver that shares
   // the wedge (seen on a Cedar Creek room: two slivers 1e-5 texel high side by side); once that one is
   // open, the first may open too. Rounds until one opens nothing.
+  // note: opening moves a wedge by up to kThinAltitude, which can push a sliver into a triangle of its
+  // chart that is not its neighbour (Cedar Creek lod0_room6: 6 pairs more than the input, which the
+  // pipeline refused); the faces of each chart holding a closed sliver are gathered for that test.
+  std::map<int, std::vector<int>> chart_faces;
+  for (const auto& cl : closed) chart_faces[chart(cl[0])];
+  for (size_t f = 0; f < nf; ++f) {
+    if (at_.face_chart[f] < 0 || mesh_.faces[f].page == kNoPage) continue;
+    auto it = chart_faces.find(chart(static_cast<int>(f)));
+    if (it != chart_faces.end()) it->second.push_back(static_cast<int>(f));
+  }
   for (size_t opened = 1; opened > 0 && !closed.empty();) {
     opened = 0;
     std::vector<std::array<int, 4>> still;
     for (const auto& [fi, i, j, k] : closed) {
       // The corner opposite the longest edge first, then either end of that edge.
-      if (open_thin_wedge(fi, i, j, k) || open_thin_wedge(fi, j, k, i) || open_thin_wedge(fi, k, i, j)) ++opened;
+      const std::vector<int>& cf = chart_faces[chart(fi)];
+      if (open_thin_wedge(fi, i, j, k, cf) || open_thin_wedge(fi, j, k, i, cf) || open_thin_wedge(fi, k, i, j, cf))
+        ++opened;
       else still.push_back({fi, i, j, k});
     }
     rep_.thin_faces_opened += opened;
@@ -186,7 +199,7 @@ void Engine::open_thin_faces() {
     }
 }
 
-bool Engine::open_thin_wedge(int fi, int i, int j, int k) {
+bool Engine::open_thin_wedge(int fi, int i, int j, int k, const std::vector<int>& chart_faces) {
   // The atlas: the move of open_thin_faces on the current triangle (corner k out from edge i-j),
   // kept when no other face using that wedge closes below min(its altitude before, kThinAltitude).
   const int w = wedge(fi, k);
@@ -200,14 +213,34 @@ bool Engine::open_thin_wedge(int fi, int i, int j, int k) {
   const double sd = eb.x() * (old - a).y() - eb.y() * (old - a).x();
   const double side = rest_inv_[static_cast<size_t>(fi)].determinant() > 0 ? 1 : -1;  // its rest shape's turn
   std::vector<std::pair<int, double>> others;
+  std::vector<int> moved;
   faces_of_wedge(w, chart(fi), [&](int g, int) {
+    moved.push_back(g);
     if (g != fi && rest_w_[static_cast<size_t>(g)] > 0) others.emplace_back(g, oriented_altitude(g));
   });
   uv(w) = old + (side * height - sd) * nb;
   bool ok = oriented_altitude(fi) > 0;
   for (const auto& [g, before] : others) ok = ok && oriented_altitude(g) >= std::min(before, kThinAltitude);
+  ok = ok && !wedge_move_adds_overlap(w, old, moved, chart_faces);
   if (!ok) uv(w) = old;
   return ok;
+}
+
+bool Engine::wedge_move_adds_overlap(int w, const Vec2& old, const std::vector<int>& moved,
+                                     const std::vector<int>& chart_faces) const {
+  std::vector<Tri2> mv, all;
+  mv.reserve(moved.size());
+  all.reserve(chart_faces.size());
+  for (int g : moved) mv.push_back(tri2(g));
+  for (int h : chart_faces) all.push_back(tri2(h));
+  auto before = [&](Tri2 t) {
+    for (size_t k = 0; k < 3; ++k)
+      if (t.w[k] == w) t.p[k] = old;
+    return t;
+  };
+  return any_triangle_overlap(mv, all, 0, [&](const Tri2& a, const Tri2& b) {
+    return !triangles_overlap(before(a), before(b));
+  });
 }
 
 void Engine::setup_charts() {

@@ -764,6 +764,53 @@ TEST(MergeEngineSteps, TwoSliversSharingAnApexAreBothOpened) {
   EXPECT_EQ(r.flipped_out, 0u);
 }
 
+/// One chart of four faces on a 4096 page, texels offset by (2000, 2000), 3D = the texels (z = 0):
+/// A = (p0, p1, pa) a sliver over the edge p0 p1 (apex pa = (32, delta)), C = (p0, p2, p1) under that
+/// edge, E = (p2, p3, p1) and B = (p1, p3, pb) to its right, pb = (30, 1e-3): B reaches back over the
+/// sliver, its edge p1 pb passing 9.4e-4 texel above the apex (at x = 32), touching A only at p1.
+TexturedMesh sliver_under_a_fold(double delta) {
+  TexturedMesh m = test::one_page_mesh(4096);
+  const std::vector<Vec2> tx = {Vec2(0, 0), Vec2(64, 0), Vec2(32, -30), Vec2(90, 5), Vec2(32, delta), Vec2(30, 1e-3)};
+  for (const Vec2& t : tx) {
+    m.positions.emplace_back(t.x() / 64, t.y() / 64, 0);
+    m.texcoords.push_back((t + Vec2(2000, 2000)) / 4096.0);
+  }
+  const int tris[4][3] = {{0, 1, 4}, {0, 2, 1}, {2, 3, 1}, {1, 3, 5}};
+  for (int t = 0; t < 4; ++t) {
+    Face f;
+    f.page = 0;
+    f.source_line = t + 1;
+    for (int k = 0; k < 3; ++k) f.v[static_cast<size_t>(k)] = f.vt[static_cast<size_t>(k)] = tris[t][k];
+    m.faces.push_back(f);
+  }
+  return m;
+}
+
+TEST(MergeEngineSteps, OpeningASliverNeverPushesItIntoAnotherTriangleOfItsChart) {
+  // By hand: opening A at its apex (out to y = 2e-3 at x = 32) would put the apex inside B (B spans
+  // y = 9.4e-4 .. 4.7 there): a pair of the chart overlapping that the input does not have (Cedar
+  // Creek lod0_room6: 6 such pairs, which the pipeline refused). So A opens at an end of its longest
+  // edge p0 p1 instead (nothing lies under C), with altitude >= kThinAltitude and no overlap added.
+  test::Run run(sliver_under_a_fold(1e-5));
+  ASSERT_EQ(run.ctx.atlas.num_charts, 1);
+  const Vec2 apex_before = run.ctx.atlas.wedge_uv[static_cast<size_t>(run.ctx.atlas.face_wedge[0][2])];
+  ArapSolver solver;
+  const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {}, MergeOptions{}, solver, {});
+  EXPECT_EQ(r.thin_faces, 1u);
+  EXPECT_EQ(r.thin_faces_opened, 1u);
+  const auto [in, out] = test::overlaps_in_out(run);
+  EXPECT_EQ(in, 0u);
+  EXPECT_EQ(out, 0u);
+  const Atlas& at = run.ctx.atlas;
+  EXPECT_EQ(at.wedge_uv[static_cast<size_t>(at.face_wedge[0][2])], apex_before);  // the apex stayed
+  const auto& w = at.face_wedge[0];
+  const Vec2 a = at.wedge_uv[static_cast<size_t>(w[0])], b = at.wedge_uv[static_cast<size_t>(w[1])],
+             c = at.wedge_uv[static_cast<size_t>(w[2])];
+  const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+  EXPECT_GE(((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x()) / longest, 2e-3 * (1 - 1e-6));
+  EXPECT_EQ(r.flipped_out, 0u);
+}
+
 TEST(MergeEngineSteps, AMoveMayNotLeaveATriangleTooLowForAFloat32File) {
   // The two squares aligned, welded and solved (accepted as they are). Then face 2's corner 2 (its
   // own wedge) is put on face 2's side of the line 1-5 at a height h over it: with h = 5e-4 texel, under
