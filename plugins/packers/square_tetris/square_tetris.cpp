@@ -1013,6 +1013,11 @@ class SquareTetris : public Packer {
                              "outlines (its packing factor; outline tails only), the search then capped by "
                              "angle_search_opened_max_work (0: off)")
                       .range(0, 1));
+    out.push_back(opt_double("angle_search_box_share", 0,
+                             "Also search the angles of the free charts whose box (at the minimum-area angle) is at least "
+                             "this share of the page area without the search, whatever the chart count, the search then "
+                             "capped by angle_search_opened_max_work (0: off)")
+                      .range(0, 1));
     out.push_back(opt_double("angle_search_opened_max_work", 300,
                              "Work cap (as angle_search_max_work, when lower) of a search opened by "
                              "angle_search_packing_below")
@@ -1726,7 +1731,9 @@ class SquareTetris : public Packer {
   /// The charts the angle search turns in p (settings s): every free chart when the search is on
   /// (angle_search_max_charts > 0), free rotation is on and p has at most angle_search_max_charts
   /// charts, or more but fills less than angle_search_packing_below of its page with the charts'
-  /// dilated outlines (then *opened = true); else none. Exact charts keep quarter turns. Ordered by
+  /// dilated outlines (then *opened = true); otherwise, with more charts, the free charts whose box
+  /// is at least angle_search_box_share of p's page area (then *opened = true when there is one);
+  /// else none. Exact charts keep quarter turns. Ordered by
   /// increasing fill of their box (UV area / box area at the minimum-area angle; ties: chart id).
   /// note: a chart that fills its box is near its best at the minimum-area angle; a concave one is
   /// where the angle matters, and the coordinate descent's first charts choose from the most
@@ -1738,9 +1745,18 @@ class SquareTetris : public Packer {
     std::vector<int> out;
     const auto charts = std::count_if(p.in.charts.begin(), p.in.charts.end(), [](const PackChart& c) { return !c.faces.empty(); });
     *opened = charts > max_charts && p.padded > 0 && static_cast<double>(p.padded) < below * p.r.total_area();
-    if (max_charts <= 0 || !s.free_rotation || (charts > max_charts && !*opened)) return out;
+    // Beyond the count (and unless opened), the free charts whose box is at least `share` of the page.
+    // note: on the Cedar rooms a few large free charts (walls and floors, 20-60% of the page each)
+    // decide the page; their angles are what the search finds there (lod2_room12 0.1638 -> 0.1229
+    // MP with 0.3); searching them alone costs less than every free chart (angle_search_packing_below
+    // 0.7: lod3_room10 1.26 against 0.65 s, lod1_room8 0.75 against 0.12 s; docs/packers.md,
+    // "Large charts' angles").
+    const double share = options().get_double("angle_search_box_share");
+    const double big = charts > max_charts && !*opened && share > 0 ? share * p.r.total_area() : 0;
+    if (max_charts <= 0 || !s.free_rotation || (charts > max_charts && !*opened && big <= 0)) return out;
     for (const PackChart& c : p.in.charts)
-      if (!c.faces.empty() && !c.exact) out.push_back(c.id);
+      if (!c.faces.empty() && !c.exact && static_cast<double>(c.box_area()) >= big) out.push_back(c.id);
+    if (big > 0 && !out.empty()) *opened = true;
     auto fill = [&](int id) {
       const PackChart& c = p.in.charts[static_cast<size_t>(id)];
       return c.uv_area / static_cast<double>(c.box_area());

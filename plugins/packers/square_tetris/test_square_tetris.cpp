@@ -874,6 +874,37 @@ TEST(PackersSquareTetris, AngleSearchOpensBelowAPackingFactor) {
   EXPECT_EQ(uncapped->report.at("angle_search_packings").get<int>(), 11);
 }
 
+TEST(PackersSquareTetris, AngleSearchOpensOnChartsWithALargeBox) {
+  // The V and the triangle of AngleSearchOpensBelowAPackingFactor (angle_search_max_charts 1: no
+  // search by count; page 216 x 144 without the search). The free V's box at its minimum-area angle
+  // (about 200 x 68 texels) is 0.4-0.5 of that page, the exact triangle's 140 x 140 is larger but
+  // exact. angle_search_box_share 0.3 searches the V alone (11 candidates, not the triangle), with
+  // the layout of the search by count; 0.9 (no free chart's box is that large) and 0 (off, the
+  // default) search nothing; the opened search's work cap applies.
+  const std::vector<std::vector<Vec2>> polys = v_and_triangle();
+  auto with = [&](const json& extra) {
+    json o = {{"page_multiple", 4}, {"angle_search_max_charts", 1}};
+    for (const auto& [k, v] : extra.items()) o[k] = v;
+    return run_packer(kName, polygon_mesh(polys, 1024), o, turn_chart0(0.3));
+  };
+  auto off = with(json::object());
+  EXPECT_EQ(off->report.at("angle_search_packings").get<int>(), 0);
+  auto large = with({{"angle_search_box_share", 0.3}});
+  expect_valid_layout(*large, 4);
+  EXPECT_TRUE(large->report.at("angle_search_opened").get<bool>());
+  EXPECT_EQ(large->report.at("angle_search_packings").get<int>(), 11);
+  EXPECT_LT(large->report.at("page_megapixels").get<double>(), off->report.at("page_megapixels").get<double>());
+  auto by_count = run_packer(kName, polygon_mesh(polys, 1024), {{"page_multiple", 4}}, turn_chart0(0.3));
+  EXPECT_EQ(large->ctx.layout.wedge_uv, by_count->ctx.layout.wedge_uv);
+  auto none = with({{"angle_search_box_share", 0.9}});
+  EXPECT_EQ(none->report.at("angle_search_packings").get<int>(), 0);
+  EXPECT_FALSE(none->report.at("angle_search_opened").get<bool>());
+  EXPECT_EQ(none->ctx.layout.wedge_uv, off->ctx.layout.wedge_uv);
+  auto capped = with({{"angle_search_box_share", 0.3}, {"angle_search_opened_max_work", 0.34}});
+  EXPECT_TRUE(capped->report.at("angle_search_capped").get<bool>());
+  EXPECT_EQ(capped->report.at("angle_search_packings").get<int>(), 0);
+}
+
 TEST(PackersSquareTetris, AngleSearchOptionsAreDeclaredWithRanges) {
   Registry::instance().load_plugins();
   const StageInfo* info = Registry::instance().find(kName);
@@ -892,4 +923,8 @@ TEST(PackersSquareTetris, AngleSearchOptionsAreDeclaredWithRanges) {
   EXPECT_EQ(check("angle_search_packing_below", 1.5), "= 1.5 outside [0, 1]");
   EXPECT_EQ(check("angle_search_packing_below", 0.0), "");  // off
   EXPECT_EQ(check("angle_search_opened_max_work", -1), "= -1 outside [0, 1e+06]");
+  EXPECT_EQ(check("angle_search_box_share", 1.5), "= 1.5 outside [0, 1]");
+  EXPECT_EQ(check("angle_search_box_share", 0.0), "");  // off
+  EXPECT_EQ(check("wide_page_trials", 7), "= 7 outside [0, 6]");
+  EXPECT_EQ(check("wide_page_trials", 0), "");  // off
 }
