@@ -964,15 +964,22 @@ class SquareTetris : public Packer {
   static std::vector<OptionSpec> width_options() {
     std::vector<OptionSpec> out;
     out.push_back(opt_int("wide_page_trials", 2,
-                          "With an outline tail of at most order_trials_max_charts charts and width_trials > 1, pages "
+                          "With an outline tail of at most width_refine_max_charts charts and width_trials > 1, pages "
                           "about 2^k times as wide as high (k = 1 .. wide_page_trials) are packed too, in every tail "
                           "order, after the other widths; a smaller result is kept and its width refined (0: off)")
                       .range(0, 6));
     out.push_back(opt_int("width_refine", 8,
-                          "With an outline tail of at most order_trials_max_charts charts and width_trials > 1, the page widths 1 .. width_refine "
+                          "With an outline tail of at most width_refine_max_charts charts and width_trials > 1, the page widths 1 .. width_refine "
                           "page_multiple steps narrower and wider than the best width are packed too (best tail order), "
                           "keeping the smallest result (0: off)")
                       .range(0, 64));
+    // note: default 300 (order_trials_max_charts' default, which was this limit before 2026-12-05);
+    // configs/best.json sets 500: Cedar lod3_room4 (449 charts) 2.1299 -> 2.0275 MP for 50 ms,
+    // t015_L18 (472) unchanged for +160 ms (docs/packers.md, "Refinement beyond the tail orders").
+    out.push_back(opt_int("width_refine_max_charts", 300,
+                          "Most outline-tail charts with which the width refinement and the wide-page trials run "
+                          "(in the tail orders that order_trials_max_charts allows; 0: never)")
+                      .range(0, 100000000));
     return out;
   }
 
@@ -1224,7 +1231,7 @@ class SquareTetris : public Packer {
   /// Whether refine_widths may give widths (it gives none in the cases it names).
   bool refines(const CommonSettings& s, size_t tail_charts, bool tail_skipped) const {
     const long long steps = options().get_int("width_refine");
-    const long long max_charts = options().get_int("order_trials_max_charts");
+    const long long max_charts = options().get_int("width_refine_max_charts");
     return steps > 0 && !tail_skipped && tail_charts > 0 && !s.power_of_two && s.width_trials > 1 && max_charts > 0 &&
            tail_charts <= static_cast<size_t>(max_charts);
   }
@@ -1233,7 +1240,7 @@ class SquareTetris : public Packer {
   /// narrower and wider than `best` (the best width of the trials), those not tried already
   /// (`tried`), within [min_page_width, max_page_size]; none without an outline tail (rectangles
   /// only: the paper's packer), when the tail is skipped or holds more than
-  /// order_trials_max_charts charts, with one width trial, or with power-of-two pages.
+  /// width_refine_max_charts charts, with one width trial, or with power-of-two pages.
   std::vector<int> refine_widths(const PackInput& in, const CommonSettings& s, const std::vector<int>& tried, int best,
                                  size_t tail_charts, bool tail_skipped) const {
     std::vector<int> out;
@@ -1595,12 +1602,12 @@ class SquareTetris : public Packer {
   /// The widths of the wide-page trials: for k = 1 .. wide_page_trials, sqrt(need x 2^k / e) for e
   /// in {0.85, 0.7} (pages about 2^k times as wide as high), rounded as the width trials are
   /// (initial_page_width), those not in `tried`; none without an outline tail, when the tail is
-  /// skipped or holds more than order_trials_max_charts charts, with one width trial or with
+  /// skipped or holds more than width_refine_max_charts charts, with one width trial or with
   /// power-of-two pages.
   std::vector<int> wide_widths(const PackInput& in, const CommonSettings& s, double need, const std::vector<int>& tried,
                                size_t tail_charts, bool tail_skipped) const {
     std::vector<int> out;
-    const long long max_charts = options().get_int("order_trials_max_charts");
+    const long long max_charts = options().get_int("width_refine_max_charts");
     if (tail_skipped || tail_charts == 0 || s.power_of_two || s.width_trials <= 1 || max_charts <= 0 ||
         tail_charts > static_cast<size_t>(max_charts))
       return out;

@@ -222,13 +222,16 @@ TEST(PackersSquareTetris, TailOrdersKeepTheSmallestPacking) {
       if (i % 2 == 0) polys.push_back({{x, y}, {x + a, y}, {x, y + b}});
       else polys.push_back({{x, y}, {x + a, y}, {x + a, y + t}, {x + t, y + t}, {x + t, y + b}, {x, y + b}});
     }
-    auto box_only = run_packer(kName, polygon_mesh(polys, 4096), {{"order_trials_max_charts", 0}});
+    // (width_refine_max_charts as order_trials_max_charts: no refinement or wide pages either)
+    auto box_only =
+        run_packer(kName, polygon_mesh(polys, 4096), {{"order_trials_max_charts", 0}, {"width_refine_max_charts", 0}});
     expect_valid_layout(*box_only, 4);
     EXPECT_EQ(box_only->report.at("tail_orders_tried").get<int>(), 1);
     EXPECT_EQ(box_only->report.at("tail_order").get<std::string>(), "box_area");
     const int tail = box_only->report.at("tail_charts").get<int>();
     EXPECT_GE(tail, 40);
-    auto too_many = run_packer(kName, polygon_mesh(polys, 4096), {{"order_trials_max_charts", tail - 1}});
+    auto too_many = run_packer(kName, polygon_mesh(polys, 4096),
+                               {{"order_trials_max_charts", tail - 1}, {"width_refine_max_charts", tail - 1}});
     EXPECT_EQ(too_many->report.at("tail_orders_tried").get<int>(), 1);
     EXPECT_EQ(area(*too_many), area(*box_only));
     auto all = run_packer(kName, polygon_mesh(polys, 4096), nlohmann::json::object());
@@ -259,7 +262,7 @@ TEST(PackersSquareTetris, WidthRefineKeepsTheSmallestPackingAndStopsBeyondTheTai
   // The tail sets of TailOrdersKeepTheSmallestPacking (other seeds): the widths around the best one
   // (width_refine steps of page_multiple) are packed too; the result is never larger than without
   // them, strictly smaller whenever the report says a refined width was kept, and the refinement
-  // is off beyond order_trials_max_charts tail charts.
+  // is off beyond width_refine_max_charts tail charts.
   auto area = [](const PackRun& r) {
     double s = 0;
     for (const auto& p : r.ctx.layout.pages) s += static_cast<double>(p.width) * p.height;
@@ -292,7 +295,8 @@ TEST(PackersSquareTetris, WidthRefineKeepsTheSmallestPackingAndStopsBeyondTheTai
       EXPECT_EQ(refined->ctx.layout.wedge_uv, plain->ctx.layout.wedge_uv);
     }
     const int tail = plain->report.at("tail_charts").get<int>();
-    auto beyond = run_packer(kName, polygon_mesh(polys, 4096), {{"order_trials_max_charts", tail - 1}, {"wide_page_trials", 0}});
+    auto beyond = run_packer(kName, polygon_mesh(polys, 4096),
+                             {{"order_trials_max_charts", tail - 1}, {"width_refine_max_charts", tail - 1}, {"wide_page_trials", 0}});
     EXPECT_FALSE(beyond->report.at("page_width_refined").get<bool>());
     EXPECT_EQ(beyond->report.at("page_width_trials").get<int>(),
               plain->report.at("page_width_trials").get<int>() / plain->report.at("tail_orders_tried").get<int>());
@@ -325,11 +329,17 @@ TEST(PackersSquareTetris, WidePageTrialsKeepAWidePageOnlyWhenSmaller) {
   EXPECT_EQ(four->report.at("page_sizes"), json::parse("[[320, 96]]"));
   EXPECT_TRUE(four->report.at("page_width_wide").get<bool>());
   expect_valid_layout(*four, 2);
-  // the wide pages only join the trials that order_trials_max_charts allows
+  // the wide pages run with at most width_refine_max_charts tail charts (3 here), whatever
+  // order_trials_max_charts allows (the tail orders)
   auto beyond = run_packer(kName, polygon_mesh(polys, 512),
                            {{"gutter", 2}, {"page_multiple", 32}, {"allow_rotation", false}, {"width_refine", 0},
-                            {"block_grid", 0}, {"order_trials_max_charts", 2}});
+                            {"block_grid", 0}, {"width_refine_max_charts", 2}});
   EXPECT_EQ(beyond->report.at("page_sizes"), json::parse("[[128, 288]]"));
+  auto one_order = run_packer(kName, polygon_mesh(polys, 512),
+                              {{"gutter", 2}, {"page_multiple", 32}, {"allow_rotation", false}, {"width_refine", 0},
+                               {"block_grid", 0}, {"order_trials_max_charts", 2}});
+  EXPECT_EQ(one_order->report.at("page_sizes"), json::parse("[[320, 96]]"));
+  EXPECT_EQ(one_order->report.at("tail_orders_tried").get<int>(), 1);
 }
 
 namespace {
@@ -927,4 +937,5 @@ TEST(PackersSquareTetris, AngleSearchOptionsAreDeclaredWithRanges) {
   EXPECT_EQ(check("angle_search_box_share", 0.0), "");  // off
   EXPECT_EQ(check("wide_page_trials", 7), "= 7 outside [0, 6]");
   EXPECT_EQ(check("wide_page_trials", 0), "");  // off
+  EXPECT_EQ(check("width_refine_max_charts", -1), "= -1 outside [0, 1e+08]");
 }
