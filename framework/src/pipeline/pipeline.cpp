@@ -101,13 +101,9 @@ void check_regions(const StageContext& ctx, const std::string& stage) {
     if (!used[g]) throw StageError(stage + ": region " + std::to_string(g) + " has no face (regions are numbered 0..n-1, none empty)");
 }
 
-/// Overlaps of at most this area (texels^2) are not counted by the framework's checks. Moving a
-/// chart (a translation, a quarter turn, a free rotation, a rigid alignment) rounds its coordinates,
-/// and the exact predicates then see faces of zero UV area turn into slivers and faces that touch
-/// along an unwelded edge cross by ~1e-13 texels^2 (issue 12, Cedar Creek: every pair a packer
-/// added there measured <= 1e-8 texels^2); such a pair covers no texel. Genuine overlaps start
-/// orders of magnitude higher (the smallest a merger added there: ~1e-4 texels^2).
-constexpr double kOverlapMinArea = 1e-6;
+/// Overlaps of at most this area (texels^2) are not counted by the framework's checks (see
+/// core/uv_overlap.h).
+constexpr double kOverlapMinArea = kCountedOverlapArea;
 
 /// Pairs of UV triangles whose interiors overlap by more than kOverlapMinArea, counted per page:
 /// the input's (texels of the input pages) or, with a layout, the packed output's (texels of the

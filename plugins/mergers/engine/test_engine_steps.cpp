@@ -7,6 +7,7 @@
 #include "test_overlaps.h"
 
 #include "texdefrag/core/distortion.h"
+#include "texdefrag/core/uv_overlap.h"
 #include "texdefrag/texture/resample.h"
 
 #include <gtest/gtest.h>
@@ -767,10 +768,11 @@ TEST(MergeEngineSteps, TwoSliversSharingAnApexAreBothOpened) {
 /// One chart of four faces on a 4096 page, texels offset by (2000, 2000), 3D = the texels (z = 0):
 /// A = (p0, p1, pa) a sliver over the edge p0 p1 (apex pa = (32, delta)), C = (p0, p2, p1) under that
 /// edge, E = (p2, p3, p1) and B = (p1, p3, pb) to its right, pb = (30, 1e-3): B reaches back over the
-/// sliver, its edge p1 pb passing 9.4e-4 texel above the apex (at x = 32), touching A only at p1.
-TexturedMesh sliver_under_a_fold(double delta) {
+/// sliver (with fold_y 1e-3 its edge p1 pb passes 9.4e-4 texel above the apex at x = 32, touching A
+/// only at p1).
+TexturedMesh sliver_under_a_fold(double delta, double fold_y = 1e-3) {
   TexturedMesh m = test::one_page_mesh(4096);
-  const std::vector<Vec2> tx = {Vec2(0, 0), Vec2(64, 0), Vec2(32, -30), Vec2(90, 5), Vec2(32, delta), Vec2(30, 1e-3)};
+  const std::vector<Vec2> tx = {Vec2(0, 0), Vec2(64, 0), Vec2(32, -30), Vec2(90, 5), Vec2(32, delta), Vec2(30, fold_y)};
   for (const Vec2& t : tx) {
     m.positions.emplace_back(t.x() / 64, t.y() / 64, 0);
     m.texcoords.push_back((t + Vec2(2000, 2000)) / 4096.0);
@@ -809,6 +811,30 @@ TEST(MergeEngineSteps, OpeningASliverNeverPushesItIntoAnotherTriangleOfItsChart)
   const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
   EXPECT_GE(((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x()) / longest, 2e-3 * (1 - 1e-6));
   EXPECT_EQ(r.flipped_out, 0u);
+}
+
+TEST(MergeEngineSteps, OpeningASliverNeverGrowsAnOverlapPastWhatThePipelineCounts) {
+  // The same chart with the fold just under the apex (apex 5e-8 texel high, B's edge 2.35e-8 under it
+  // at x = 32): A and B overlap in the input by a sliver of about 4e-7 texel^2, under the 1e-6 the
+  // pipeline counts (Cedar Creek lod0_room5 had 4 such pairs grown past it). Opened at its apex, A would
+  // cover about 0.03 texel^2 of B; so it opens at an end of its longest edge, and no pair of the chart
+  // overlaps by more than 1e-6 afterwards.
+  test::Run run(sliver_under_a_fold(5e-8, 2.5e-8));
+  const auto tri = [&](int f) {
+    const auto& w = run.ctx.atlas.face_wedge[static_cast<size_t>(f)];
+    return std::array<Vec2, 3>{run.ctx.atlas.wedge_uv[static_cast<size_t>(w[0])], run.ctx.atlas.wedge_uv[static_cast<size_t>(w[1])],
+                               run.ctx.atlas.wedge_uv[static_cast<size_t>(w[2])]};
+  };
+  const double before = triangle_intersection_area(tri(0), tri(3));
+  EXPECT_GT(before, 0.0);
+  EXPECT_LT(before, 1e-6);
+  ArapSolver solver;
+  const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {}, MergeOptions{}, solver, {});
+  EXPECT_EQ(r.thin_faces_opened, 1u);
+  std::vector<std::array<Vec2, 3>> tris;
+  for (int f = 0; f < 4; ++f) tris.push_back(tri(f));
+  EXPECT_EQ(count_overlapping_pairs(tris, 1e-6), 0u);
+  EXPECT_LT(triangle_intersection_area(tri(0), tri(3)), 1e-6);
 }
 
 TEST(MergeEngineSteps, AMoveMayNotLeaveATriangleTooLowForAFloat32File) {

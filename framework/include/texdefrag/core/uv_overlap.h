@@ -10,6 +10,15 @@
 
 namespace texdefrag {
 
+/// Texels^2: the framework's contract checks (pipeline: no stage may add overlapping UV triangle pairs)
+/// count a pair only when its overlap area exceeds this. Moving a chart (a translation, a quarter
+/// turn, a free rotation, a rigid alignment) rounds its coordinates, and the exact predicates then
+/// see faces of zero UV area turn into slivers and faces that touch along an unwelded edge cross by
+/// ~1e-13 texels^2 (issue 12, Cedar Creek: every pair a packer added there measured <= 1e-8
+/// texels^2); such a pair covers no texel. Genuine overlaps start orders of magnitude higher (the
+/// smallest a merger added there: ~1e-4 texels^2). Mergers use it to tell which pairs they add.
+constexpr double kCountedOverlapArea = 1e-6;
+
 /// Number of pairs of triangles whose interiors intersect. Triangles sharing only an edge or a
 /// vertex do not overlap; triangles of zero area (exactly collinear corners) never count.
 /// Exact: orientation predicates with an exact fallback. Broad phase: a uniform grid; O(n) for
