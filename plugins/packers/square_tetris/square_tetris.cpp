@@ -1733,6 +1733,7 @@ class SquareTetris : public Packer {
     size_t skipped = 0;   ///< of those, skipped as bound to stop (bound_to_stop)
     size_t replayed = 0;  ///< chart placements the candidates' trials replayed (TetrisTrial::replay)
     bool opened = false;  ///< a search ran beyond angle_search_max_charts (angle_search_packing_below)
+    bool free_trial_skipped = false;  ///< the free trial's opened search was skipped (free_trial_and_search)
   };
 
   /// The charts the angle search turns in p (settings s): every free chart when the search is on
@@ -1864,7 +1865,10 @@ class SquareTetris : public Packer {
   /// angles of both are searched (search_angles; best's alone when the trial does not apply). Kept
   /// (best = it) when it was kept unsearched (frees against best unsearched) and best's search did
   /// not end strictly smaller, or when frees says so after both searches: never larger than without
-  /// the search. st.before: the page area without any search. Returns whether it was kept.
+  /// the search. A search of the free trial that would be opened (beyond angle_search_max_charts:
+  /// angle_search_charts) runs only when the trial starts with at most best's pages and page area
+  /// before best's search (st.free_trial_skipped otherwise). st.before: the page area without any
+  /// search. Returns whether it was kept.
   /// note: its other charts take best's masks (t078_L17: preparing the free trial, its masks
   /// rasterised again, was 0.07 of the packer's 0.35 s).
   bool free_trial_and_search(const StageContext& ctx, Packed& best, const CommonSettings& s, AngleStats& st) const {
@@ -1878,8 +1882,16 @@ class SquareTetris : public Packer {
     Packed t = pack_all(ctx, f, nullptr, &best.plan, &best.in);
     const bool kept_unsearched = frees(t.r, best.r);
     if (kept_unsearched) st.before = t.r.total_area();
+    const int pages0 = best.r.pages;
+    const double area0 = best.r.total_area();
     search_angles(ctx, best, s, st);
-    search_angles(ctx, t, f, st);
+    // note: an opened search (beyond angle_search_max_charts) skips a free trial that starts larger
+    // than the packing before its search: on the 64 models of docs/packers.md ("Large charts'
+    // angles") none was kept, and its search was a third of the rooms' packer CPU.
+    bool opened = false;
+    angle_search_charts(t, f, &opened);
+    if (!opened || t.r.pages < pages0 || (t.r.pages == pages0 && t.r.total_area() <= area0)) search_angles(ctx, t, f, st);
+    else st.free_trial_skipped = true;
     const bool keep = kept_unsearched ? !packing::better_result(best.r, t.r) : frees(t.r, best.r);
     if (keep) best = std::move(t);
     return keep;
@@ -1918,6 +1930,7 @@ class SquareTetris : public Packer {
     rep["angle_search_width_trials_skipped"] = angles.skipped;
     rep["angle_search_placements_replayed"] = angles.replayed;
     rep["angle_search_opened"] = angles.opened;
+    rep["angle_search_free_trial_skipped"] = angles.free_trial_skipped;
     rep["angle_search_charts_turned"] = best.turned;
     rep["angle_search_megapixels_before"] = angles.before / 1e6;
     rep["hole_fills"] = r.hole_fills;

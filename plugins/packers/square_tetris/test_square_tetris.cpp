@@ -915,6 +915,46 @@ TEST(PackersSquareTetris, AngleSearchOpensOnChartsWithALargeBox) {
   EXPECT_EQ(capped->report.at("angle_search_packings").get<int>(), 0);
 }
 
+TEST(PackersSquareTetris, AnOpenedSearchSkipsAFreeTrialThatStartsLarger) {
+  // Chart 0: a V (two 200 x 10 arms 30 degrees apart) turned by `turn` in the input, one corner
+  // moved by a quarter texel (exact, partly resampled: the free trial frees it); chart 1: an exact
+  // right triangle with 140-texel legs (AngleSearchRunsInTheFreeTrial's atlas). Only the free
+  // trial's V can be searched. Turned by 0.2 rad the freed V packs larger than the exact one
+  // (0.030528 MP exact): an opened search (angle_search_max_charts 1, angle_search_box_share 0.3)
+  // skips the trial's search and the page stays; the search by count (16) still searches it.
+  // Turned by 0.3 rad the freed V starts smaller, and the opened search runs and keeps it.
+  auto run = [](double turn, const json& o) {
+    std::vector<Vec2> v = v_polygon(200, 10, 30, {0, 0});
+    for (Vec2& p : v) p = packing::rotate(p, turn) + Vec2(400.3, 300.7);
+    auto edit = [](Atlas& a) {
+      for (size_t f = 0; f < a.face_chart.size(); ++f)
+        if (a.face_chart[f] == 0) {
+          a.wedge_uv[static_cast<size_t>(a.face_wedge[f][1])] += Vec2(0.25, -0.1);
+          break;
+        }
+    };
+    json all = {{"page_multiple", 4}, {"free_trial_gain", 0.0}};
+    for (const auto& [k, x] : o.items()) all[k] = x;
+    return run_packer(kName, polygon_mesh({v, {{10, 10}, {150, 10}, {10, 150}}}, 1024), all, edit);
+  };
+  const json opened = {{"angle_search_max_charts", 1}, {"angle_search_box_share", 0.3}};
+  auto off = run(0.2, {{"angle_search_max_charts", 0}});
+  EXPECT_FALSE(off->report.at("free_trial_kept").get<bool>());  // with gain 0: the freed V packs larger
+  EXPECT_DOUBLE_EQ(off->report.at("page_megapixels").get<double>(), 0.030528);
+  auto skipped = run(0.2, opened);
+  EXPECT_TRUE(skipped->report.at("angle_search_free_trial_skipped").get<bool>());
+  EXPECT_EQ(skipped->report.at("angle_search_packings").get<int>(), 0);
+  EXPECT_EQ(skipped->ctx.layout.wedge_uv, off->ctx.layout.wedge_uv);
+  auto by_count = run(0.2, json::object());
+  EXPECT_FALSE(by_count->report.at("angle_search_free_trial_skipped").get<bool>());
+  EXPECT_EQ(by_count->report.at("angle_search_packings").get<int>(), 11);
+  auto smaller = run(0.3, opened);
+  EXPECT_FALSE(smaller->report.at("angle_search_free_trial_skipped").get<bool>());
+  EXPECT_EQ(smaller->report.at("angle_search_packings").get<int>(), 11);
+  EXPECT_TRUE(smaller->report.at("free_trial_kept").get<bool>());
+  expect_valid_layout(*smaller, 4);
+}
+
 TEST(PackersSquareTetris, AngleSearchOptionsAreDeclaredWithRanges) {
   Registry::instance().load_plugins();
   const StageInfo* info = Registry::instance().find(kName);
