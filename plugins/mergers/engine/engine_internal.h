@@ -411,14 +411,18 @@ class Engine {
   void open_thin_faces();
   /// open_thin_faces' change to the atlas for thin face fi: its corner k moved out from its edge
   /// (i, j), on its rest shape's side, to the height that gives the triangle the smallest altitude
-  /// kThinAltitude; kept (true) only when fi then turns as its rest shape, no other face using
-  /// that wedge closes below min(its altitude before, kThinAltitude) and no face of the wedge comes
-  /// to overlap a triangle of `chart_faces` (fi's chart, every textured face) that it did not
-  /// overlap before; else undone (false).
-  bool open_thin_wedge(int fi, int i, int j, int k, const std::vector<int>& chart_faces);
+  /// `alt`; kept (true) only when fi then turns as its rest shape, no other face using
+  /// that wedge closes below min(its altitude before, alt) and no face of the wedge comes
+  /// to overlap a triangle of `chart_faces` (fi's chart, every textured face) as a pair the pipeline
+  /// would count and did not before (wedge_move_adds_overlap); else undone (false).
+  bool open_thin_wedge(int fi, int i, int j, int k, const std::vector<int>& chart_faces, double alt);
+  /// Rounds of open_thin_wedge (target altitude `alt` instead of kThinAltitude) over the `closed`
+  /// slivers (face, i, j, k), until a round opens none; `closed` keeps those left closed.
+  void open_thin_rounds(std::vector<std::array<int, 4>>& closed, std::map<int, std::vector<int>>& chart_faces,
+                        double alt);
   /// Whether wedge w, moved from `old` to where it is now, makes one of `moved` (the faces of its
   /// chart using it) overlap a triangle of `chart_faces` (or another of `moved`) by more than
-  /// kPipelineOverlapArea and by more than the pair did with w at `old`.
+  /// kPipelineOverlapArea where the pair overlapped by at most that with w at `old`.
   bool wedge_move_adds_overlap(int w, const Vec2& old, const std::vector<int>& moved,
                                const std::vector<int>& chart_faces) const;
   /// Smallest altitude (texels) of face f's current UV triangle, signed: negative when it turns
