@@ -17,11 +17,11 @@ namespace {
 /// untangled 66 (40 of them with every smaller singular value >= 0.2), 0.5 untangled 79 (57).
 constexpr double kTheta = 0.5;
 
-/// chi(D, eps) = (D + sqrt(eps^2 + D^2)) / 2 > 0, evaluated without cancellation for D < 0.
-double chi(double D, double eps) {
-  const double s = std::sqrt(eps * eps + D * D);
-  return D >= 0 ? 0.5 * (D + s) : 0.5 * eps * eps / (s - D);
-}
+/// chi(D, eps) = (D + s) / 2 > 0 with s = sqrt(eps^2 + D^2) given, evaluated without cancellation for D < 0.
+double chi_of(double D, double eps, double s) { return D >= 0 ? 0.5 * (D + s) : 0.5 * eps * eps / (s - D); }
+
+/// chi(D, eps) = (D + sqrt(eps^2 + D^2)) / 2 > 0.
+double chi(double D, double eps) { return chi_of(D, eps, std::sqrt(eps * eps + D * D)); }
 
 /// The free positions of p as one vector (x then y per position).
 Eigen::VectorXd free_positions(const LocalProblem& p) {
@@ -60,7 +60,7 @@ double untangle_energy(const LocalProblem& p, double eps, UntangleScratch& sc) {
     q.J = deformation_gradient(p, t);
     q.det = q.J.determinant();
     q.s = std::sqrt(eps * eps + q.det * q.det);
-    q.c = chi(q.det, eps);
+    q.c = chi_of(q.det, eps, q.s);
     const double N = (1 - kTheta) * q.J.squaredNorm() + kTheta * (q.det * q.det + 1);
     q.f = N / q.c;
     e += p.weight[t] * q.f;

@@ -12,8 +12,10 @@ using Eigen::Vector2d;
 namespace {
 /// Item ids per cell of a uniform grid in compressed rows (one allocation pair per grid, not one
 /// vector per cell): items of cell c are items[start[c], start[c + 1]), in increasing id order.
+/// Callers keep one per thread (grid_scratch()), so the vectors' memory is reused between calls.
 struct CsrGrid {
-  std::vector<int> start, items;
+  std::vector<int> start, items, fill;
+  std::vector<int> seen;  ///< the caller's per-item stamps (any_triangle_overlap)
   /// cells(i, visit) calls visit(cell) for every cell item i covers.
   template <class CellsFn>
   void build(size_t num_cells, size_t num_items, CellsFn&& cells) {
@@ -21,13 +23,20 @@ struct CsrGrid {
     for (size_t i = 0; i < num_items; ++i) cells(i, [&](size_t c) { ++start[c + 1]; });
     for (size_t c = 0; c < num_cells; ++c) start[c + 1] += start[c];
     items.resize(static_cast<size_t>(start.back()));
-    std::vector<int> fill(start.begin(), start.end() - 1);
+    fill.assign(start.begin(), start.end() - 1);
     for (size_t i = 0; i < num_items; ++i)
       cells(i, [&](size_t c) { items[static_cast<size_t>(fill[c]++)] = static_cast<int>(i); });
   }
   const int* begin(size_t c) const { return items.data() + start[c]; }
   const int* end(size_t c) const { return items.data() + start[c + 1]; }
 };
+
+/// This thread's grid (any_crossing and any_triangle_overlap never run inside each other: their
+/// is_new callbacks test single pairs).
+CsrGrid& grid_scratch() {
+  thread_local CsrGrid g;
+  return g;
+}
 }  // namespace
 
 Rigid2 fit_rigid(const std::vector<Vector2d>& p, const std::vector<Vector2d>& q) {
@@ -104,7 +113,7 @@ bool any_crossing(const std::vector<Segment>& moved, const std::vector<Segment>&
     x1 = std::min(nx - 1, static_cast<int>(std::floor((b.x() - lo.x()) / cell)));
     y1 = std::min(ny - 1, static_cast<int>(std::floor((b.y() - lo.y()) / cell)));
   };
-  CsrGrid grid;
+  CsrGrid& grid = grid_scratch();
   grid.build(static_cast<size_t>(nx) * static_cast<size_t>(ny), moved.size(), [&](size_t i, auto&& visit) {
     int x0, x1, y0, y1;
     cell_range(moved[i], x0, x1, y0, y1);
@@ -148,6 +157,37 @@ bool segments_cross_eps(const Vector2d& a, const Vector2d& b, const Vector2d& c,
 }
 }  // namespace
 
+namespace {
+/// Whether a and b certainly do not overlap by their bounding boxes alone, with the same answer
+/// triangles_overlap's predicates would give (a fast exit, never a different result): no wedge id in
+/// common, the boxes apart by more than the touching tolerance (so no corner is shared by position),
+/// and both within 1e5 x the longest edge l of each other. Then every orientation those predicates
+/// read errs by at most ~7e-16 l D < 1e-10 l^2 (Shewchuk's orient2d bound, edge length <= l, other
+/// point within D <= 1e5 l), far below their eps = 1e-7 l^2, so each test they pass would hold
+/// exactly, and a proper crossing or a corner strictly inside needs the boxes to meet. Every
+/// coordinate must be finite (a NaN could leave a corner out of its box) and l2 far from underflow.
+bool boxes_apart(const Tri2& a, const Tri2& b, double l2, double tol2) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (a.w[static_cast<size_t>(i)] == b.w[static_cast<size_t>(j)]) return false;
+  double sum = 0;
+  for (size_t k = 0; k < 3; ++k) sum += a.p[k].x() + a.p[k].y() + b.p[k].x() + b.p[k].y();
+  if (!std::isfinite(sum) || !(l2 > 1e-200)) return false;
+  Vector2d alo = a.p[0], ahi = a.p[0], blo = b.p[0], bhi = b.p[0];
+  for (size_t k = 1; k < 3; ++k) {
+    alo = alo.cwiseMin(a.p[k]);
+    ahi = ahi.cwiseMax(a.p[k]);
+    blo = blo.cwiseMin(b.p[k]);
+    bhi = bhi.cwiseMax(b.p[k]);
+  }
+  const double gap = std::max(std::max(blo.x() - ahi.x(), alo.x() - bhi.x()),
+                              std::max(blo.y() - ahi.y(), alo.y() - bhi.y()));
+  if (!(gap > 0) || !(gap * gap > tol2)) return false;
+  const Vector2d ext = ahi.cwiseMax(bhi) - alo.cwiseMin(blo);
+  return ext.squaredNorm() <= 1e10 * l2;
+}
+}  // namespace
+
 bool triangles_overlap(const Tri2& a, const Tri2& b) {
   // note: corners within kTouch of the longest edge count as shared, and orientations within kTouch *
   // (longest edge)^2 as zero: after the weld and rigid motions, faces of one chart that touch along an
@@ -159,6 +199,7 @@ bool triangles_overlap(const Tri2& a, const Tri2& b) {
     l2 = std::max(l2, (b.p[static_cast<size_t>(k)] - b.p[static_cast<size_t>((k + 1) % 3)]).squaredNorm());
   }
   const double tol2 = kTouch * kTouch * l2, eps = kTouch * l2;
+  if (boxes_apart(a, b, l2, tol2)) return false;
   int shared = 0, sa[3] = {0, 0, 0}, sb[3] = {0, 0, 0};
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
@@ -221,14 +262,15 @@ bool any_triangle_overlap(const std::vector<Tri2>& moved, const std::vector<Tri2
     y1 = std::min(ny - 1, static_cast<int>(std::floor((b.y() - lo.y()) / cell)));
     return true;
   };
-  CsrGrid grid;
+  CsrGrid& grid = grid_scratch();
   grid.build(static_cast<size_t>(nx) * static_cast<size_t>(ny), moved.size(), [&](size_t i, auto&& visit) {
     int x0, x1, y0, y1;
     if (!range(moved[i], x0, x1, y0, y1)) return;
     for (int y = y0; y <= y1; ++y)
       for (int x = x0; x <= x1; ++x) visit(static_cast<size_t>(y) * static_cast<size_t>(nx) + static_cast<size_t>(x));
   });
-  std::vector<int> seen(moved.size(), -1);
+  std::vector<int>& seen = grid.seen;
+  seen.assign(moved.size(), -1);
   auto test = [&](const Tri2& t, int self, int stamp) {
     int x0, x1, y0, y1;
     if (!range(t, x0, x1, y0, y1)) return false;

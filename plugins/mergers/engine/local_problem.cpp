@@ -18,40 +18,9 @@ Mat46 gradient_operator(const Mat2& rest_inv) {
   return D;
 }
 
-Mat2 deformation_gradient(const LocalProblem& p, size_t t) {
-  const auto& c = p.tri[t];
-  Mat2 B;
-  B.col(0) = p.x[static_cast<size_t>(c[1])] - p.x[static_cast<size_t>(c[0])];
-  B.col(1) = p.x[static_cast<size_t>(c[2])] - p.x[static_cast<size_t>(c[0])];
-  return B * p.rest_inv[t];
-}
-
-Eigen::Vector2d signed_singular_values_2x2(const Mat2& F) {
-  // note: F = [[a, b], [c, d]]; with E=(a+d)/2, G=(a-d)/2, H=(c+b)/2, K=(c-b)/2 the signed singular
-  // values are hypot(E, K) +/- hypot(G, H) (Blinn's 2x2 SVD); the minus one is negative iff det < 0.
-  const double E = 0.5 * (F(0, 0) + F(1, 1)), G = 0.5 * (F(0, 0) - F(1, 1));
-  const double H = 0.5 * (F(1, 0) + F(0, 1)), K = 0.5 * (F(1, 0) - F(0, 1));
-  const double Q = std::hypot(E, K), R = std::hypot(G, H);
-  return {Q + R, Q - R};
-}
-
 double arap_error_2x2(const Mat2& F) {
   const Eigen::Vector2d s = signed_singular_values_2x2(F);
   return (s.x() - 1) * (s.x() - 1) + (s.y() - 1) * (s.y() - 1);
-}
-
-Mat2 closest_rotation(const Mat2& F) {
-  // The rotation maximising tr(R^T F): angle of the "similarity part" (E, K) of F.
-  const double E = 0.5 * (F(0, 0) + F(1, 1)), K = 0.5 * (F(1, 0) - F(0, 1));
-  const double n = std::hypot(E, K);
-  Mat2 R;
-  if (n == 0) {
-    R.setIdentity();
-    return R;
-  }
-  const double c = E / n, s = K / n;
-  R << c, -s, s, c;
-  return R;
 }
 
 namespace {

@@ -11,6 +11,7 @@
 #include <Eigen/LU>
 
 #include <array>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -64,17 +65,43 @@ class LocalSolver {
 /// The 4x6 matrix D with vec(F) = D * local corner coordinates, for a triangle with rest_inv.
 Mat46 gradient_operator(const Mat2& rest_inv);
 
-/// Deformation gradient of triangle t of p at the current positions.
-Mat2 deformation_gradient(const LocalProblem& p, size_t t);
+/// Deformation gradient of triangle t of p at the current positions. (Inline, as the two below: the
+/// solvers call them once per triangle and iteration.)
+inline Mat2 deformation_gradient(const LocalProblem& p, size_t t) {
+  const auto& c = p.tri[t];
+  Mat2 B;
+  B.col(0) = p.x[static_cast<size_t>(c[1])] - p.x[static_cast<size_t>(c[0])];
+  B.col(1) = p.x[static_cast<size_t>(c[2])] - p.x[static_cast<size_t>(c[0])];
+  return B * p.rest_inv[t];
+}
 
 /// Signed singular values of a 2x2 matrix in closed form (s1 >= |s2|, s2 < 0 when det < 0).
-Eigen::Vector2d signed_singular_values_2x2(const Mat2& F);
+inline Eigen::Vector2d signed_singular_values_2x2(const Mat2& F) {
+  // note: F = [[a, b], [c, d]]; with E=(a+d)/2, G=(a-d)/2, H=(c+b)/2, K=(c-b)/2 the signed singular
+  // values are hypot(E, K) +/- hypot(G, H) (Blinn's 2x2 SVD); the minus one is negative iff det < 0.
+  const double E = 0.5 * (F(0, 0) + F(1, 1)), G = 0.5 * (F(0, 0) - F(1, 1));
+  const double H = 0.5 * (F(1, 0) + F(0, 1)), K = 0.5 * (F(1, 0) - F(0, 1));
+  const double Q = std::hypot(E, K), R = std::hypot(G, H);
+  return {Q + R, Q - R};
+}
 
 /// ARAP error (s1-1)^2 + (s2-1)^2 with signed singular values (core/distortion.h's measure).
 double arap_error_2x2(const Mat2& F);
 
 /// Closest rotation to F (polar decomposition, det +1 enforced).
-Mat2 closest_rotation(const Mat2& F);
+inline Mat2 closest_rotation(const Mat2& F) {
+  // The rotation maximising tr(R^T F): angle of the "similarity part" (E, K) of F.
+  const double E = 0.5 * (F(0, 0) + F(1, 1)), K = 0.5 * (F(1, 0) - F(0, 1));
+  const double n = std::hypot(E, K);
+  Mat2 R;
+  if (n == 0) {
+    R.setIdentity();
+    return R;
+  }
+  const double c = E / n, s = K / n;
+  R << c, -s, s, c;
+  return R;
+}
 
 /// Largest t in (0, +inf] such that no triangle of p whose edge determinant is positive at t = 0
 /// reaches determinant 0 on [0, t) when the free positions move along `dir` (2*num_free values,
