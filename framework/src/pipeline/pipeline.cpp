@@ -101,11 +101,7 @@ void check_regions(const StageContext& ctx, const std::string& stage) {
     if (!used[g]) throw StageError(stage + ": region " + std::to_string(g) + " has no face (regions are numbered 0..n-1, none empty)");
 }
 
-/// Overlaps of at most this area (texels^2) are not counted by the framework's checks (see
-/// core/uv_overlap.h).
-constexpr double kOverlapMinArea = kCountedOverlapArea;
-
-/// Pairs of UV triangles whose interiors overlap by more than kOverlapMinArea, counted per page:
+/// Pairs of UV triangles whose interiors overlap by more than kCountedOverlapArea, counted per page:
 /// the input's (texels of the input pages) or, with a layout, the packed output's (texels of the
 /// output pages).
 size_t uv_overlap_pairs(const TexturedMesh& mesh, const Atlas& atlas, const Layout* layout) {
@@ -123,11 +119,11 @@ size_t uv_overlap_pairs(const TexturedMesh& mesh, const Atlas& atlas, const Layo
     per_page[page].push_back(t);
   }
   size_t n = 0;
-  for (const auto& tris : per_page) n += count_overlapping_pairs(tris, kOverlapMinArea);
+  for (const auto& tris : per_page) n += count_overlapping_pairs(tris, kCountedOverlapArea);
   return n;
 }
 
-/// Pairs of UV triangles of one chart overlapping by more than kOverlapMinArea, summed over the
+/// Pairs of UV triangles of one chart overlapping by more than kCountedOverlapArea, summed over the
 /// charts of a working atlas (texels of the input pages; charts are not placed yet, so pairs of
 /// different charts are not counted).
 size_t chart_overlap_pairs(const TexturedMesh& mesh, const Atlas& atlas) {
@@ -139,7 +135,7 @@ size_t chart_overlap_pairs(const TexturedMesh& mesh, const Atlas& atlas) {
     per_chart[static_cast<size_t>(atlas.face_chart[f])].push_back(t);
   }
   size_t n = 0;
-  for (const auto& tris : per_chart) n += count_overlapping_pairs(tris, kOverlapMinArea);
+  for (const auto& tris : per_chart) n += count_overlapping_pairs(tris, kCountedOverlapArea);
   return n;
 }
 

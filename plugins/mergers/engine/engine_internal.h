@@ -115,12 +115,14 @@ struct ChartInfo {
 /// altitude at set-up and keeps every move from closing them below half of it (docs/mergers.md,
 /// "Thin faces").
 constexpr double kThinAltitude = 2e-3;
-/// The pipeline's overlap check counts pairs of UV triangles overlapping by more than this (texels^2,
-/// core/uv_overlap.h): no move and no sliver opening may make a pair of a chart pass it.
-constexpr double kPipelineOverlapArea = kCountedOverlapArea;
-/// Area (texels^2) of the intersection of two triangles' interiors (core triangle_intersection_area).
-inline double overlap_area(const Tri2& a, const Tri2& b) {
-  return triangle_intersection_area({a.p[0], a.p[1], a.p[2]}, {b.p[0], b.p[1], b.p[2]});
+/// Whether a pair of UV triangles that overlapped by at most kCountedOverlapArea (texels^2, the
+/// pipeline's overlap count, core/uv_overlap.h) as (xb, yb) overlaps by more as (x, y): the pipeline
+/// would count it as a pair added. No move and no sliver opening may do that.
+inline bool crosses_counted_overlap(const Tri2& xb, const Tri2& yb, const Tri2& x, const Tri2& y) {
+  auto area = [](const Tri2& a, const Tri2& b) {
+    return triangle_intersection_area({a.p[0], a.p[1], a.p[2]}, {b.p[0], b.p[1], b.p[2]});
+  };
+  return area(x, y) > kCountedOverlapArea && area(xb, yb) <= kCountedOverlapArea;
 }
 
 /// Merges the M-method's island lookahead may look ahead (its IslandLookahead(a, b, 5)).
@@ -421,8 +423,8 @@ class Engine {
   void open_thin_rounds(std::vector<std::array<int, 4>>& closed, std::map<int, std::vector<int>>& chart_faces,
                         double alt);
   /// Whether wedge w, moved from `old` to where it is now, makes one of `moved` (the faces of its
-  /// chart using it) overlap a triangle of `chart_faces` (or another of `moved`) by more than
-  /// kPipelineOverlapArea where the pair overlapped by at most that with w at `old`.
+  /// chart using it) and a triangle of `chart_faces` (or another of `moved`) cross
+  /// crosses_counted_overlap, from w at `old` to w where it is now.
   bool wedge_move_adds_overlap(int w, const Vec2& old, const std::vector<int>& moved,
                                const std::vector<int>& chart_faces) const;
   /// Smallest altitude (texels) of face f's current UV triangle, signed: negative when it turns
@@ -483,8 +485,8 @@ class Engine {
     return (fsmall_[static_cast<size_t>(f)] == e) == (fsmall_[static_cast<size_t>(g)] == e);
   }
   /// Whether the overlapping pair (a, b) of the merged chart is one the move added: the faces were in
-  /// two charts, or their triangles did not overlap before it, or overlapped by at most
-  /// kPipelineOverlapArea and now by more (the pipeline would count the pair as new).
+  /// two charts, or their triangles did not overlap before it, or the move makes them cross
+  /// crosses_counted_overlap (the pipeline would count the pair as new).
   bool overlap_is_new(const Move& mv, Before& b, const Tri2& x, const Tri2& y) const;
 
   // ---- the acceptance checks (check() runs them in this order)

@@ -661,7 +661,7 @@ bool Engine::overlap_is_new(const Move& mv, Before& b, const Tri2& x, const Tri2
   if (!triangles_overlap(xb, yb)) return true;
   // An overlap of the input's (a sliver over its neighbour, often under 1e-9 texel^2) that the move
   // grows past what the pipeline counts is the move's doing too.
-  return overlap_area(xb, yb) <= kPipelineOverlapArea && overlap_area(x, y) > kPipelineOverlapArea;
+  return crosses_counted_overlap(xb, yb, x, y);
 }
 
 const char* Engine::check_fans(Move& mv) {

@@ -210,13 +210,13 @@ void Engine::open_thin_rounds(std::vector<std::array<int, 4>>& closed, std::map<
 
 bool Engine::open_thin_wedge(int fi, int i, int j, int k, const std::vector<int>& chart_faces, double alt) {
   // The atlas: the move of open_thin_faces on the current triangle (corner k out from edge i-j),
-  // kept when no other face using that wedge closes below min(its altitude before, kThinAltitude).
+  // kept when no other face using that wedge closes below min(its altitude before, alt).
   const int w = wedge(fi, k);
   const Vec2 a = uv(wedge(fi, i)), b = uv(wedge(fi, j)), old = uv(w);
   const double lb = (b - a).norm();
   if (!(lb > 0)) return false;
-  // Corner k's height over edge (i, j) that gives the triangle's smallest altitude kThinAltitude
-  // (twice the area over the longest edge; kThinAltitude itself when (i, j) is the longest).
+  // Corner k's height over edge (i, j) that gives the triangle's smallest altitude alt
+  // (twice the area over the longest edge; alt itself when (i, j) is the longest).
   const double height = alt * std::max({lb, (old - a).norm(), (old - b).norm()}) / lb;
   const Vec2 eb = (b - a) / lb, nb(-eb.y(), eb.x());
   const double sd = eb.x() * (old - a).y() - eb.y() * (old - a).x();
@@ -243,7 +243,7 @@ bool Engine::wedge_move_adds_overlap(int w, const Vec2& old, const std::vector<i
   for (int g : moved) mv.push_back(tri2(g));
   for (int h : chart_faces) all.push_back(tri2(h));
   // note: the input's slivers often overlap a neighbour by a sliver of area (1e-9 texel^2 and less),
-  // which the pipeline's count does not see (pairs over kPipelineOverlapArea); opened, the same pair can
+  // which the pipeline's count does not see (pairs over kCountedOverlapArea); opened, the same pair can
   // cover 1e-4 texel^2 (Cedar Creek lod0_room5: 4 pairs more). So a pair counts when its area grows
   // past that threshold, not only when it did not overlap before.
   auto before = [&](Tri2 t) {
@@ -252,7 +252,7 @@ bool Engine::wedge_move_adds_overlap(int w, const Vec2& old, const std::vector<i
     return t;
   };
   return any_triangle_overlap(mv, all, 0, [&](const Tri2& a, const Tri2& b) {
-    return overlap_area(a, b) > kPipelineOverlapArea && overlap_area(before(a), before(b)) <= kPipelineOverlapArea;
+    return crosses_counted_overlap(before(a), before(b), a, b);
   });
 }
 

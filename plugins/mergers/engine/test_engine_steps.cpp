@@ -773,17 +773,10 @@ TEST(MergeEngineSteps, TwoSliversSharingAnApexAreBothOpened) {
 TexturedMesh sliver_under_a_fold(double delta, double fold_y = 1e-3) {
   TexturedMesh m = test::one_page_mesh(4096);
   const std::vector<Vec2> tx = {Vec2(0, 0), Vec2(64, 0), Vec2(32, -30), Vec2(90, 5), Vec2(32, delta), Vec2(30, fold_y)};
-  for (const Vec2& t : tx) {
-    m.positions.emplace_back(t.x() / 64, t.y() / 64, 0);
-    m.texcoords.push_back((t + Vec2(2000, 2000)) / 4096.0);
-  }
-  const int tris[4][3] = {{0, 1, 4}, {0, 2, 1}, {2, 3, 1}, {1, 3, 5}};
-  for (int t = 0; t < 4; ++t) {
-    Face f;
-    f.page = 0;
-    f.source_line = t + 1;
-    for (int k = 0; k < 3; ++k) f.v[static_cast<size_t>(k)] = f.vt[static_cast<size_t>(k)] = tris[t][k];
-    m.faces.push_back(f);
+  for (const Vec2& t : tx) m.positions.emplace_back(t.x() / 64, t.y() / 64, 0);
+  for (const std::array<int, 3>& v : {std::array<int, 3>{0, 1, 4}, {0, 2, 1}, {2, 3, 1}, {1, 3, 5}}) {
+    const Vec2 o(2000, 2000);
+    test::add_texel_face(m, v, {tx[static_cast<size_t>(v[0])] + o, tx[static_cast<size_t>(v[1])] + o, tx[static_cast<size_t>(v[2])] + o});
   }
   return m;
 }
