@@ -185,10 +185,27 @@ void count_features(const RawMesh& raw, const Shape& shape, SynthTruth& t) {
 // build_atlas's steps, in order. `hard` is the hard features' own random stream; its draws happen
 // in the same order as before the split, so the same seed gives the same files.
 
-/// Step 1: charts are faces joined across shared edges when they have the same view. Returns each
+/// Per face: 1 when its view's camera sees it from behind (n . (camera - centroid) < 0). Only faces
+/// that no camera sees from the front get such a view (select_views' fallback: undersides of eaves
+/// and balconies, which an aerial flight never sees and real photogrammetry does not reconstruct).
+std::vector<uint8_t> seen_from_behind(const RawMesh& raw, const std::vector<int>& views, const std::vector<Camera>& cams) {
+  std::vector<uint8_t> behind(raw.tris.size(), 0);
+  for (size_t f = 0; f < raw.tris.size(); ++f) {
+    const Vec3& a = raw.positions[static_cast<size_t>(raw.tris[f][0])];
+    const Vec3& b = raw.positions[static_cast<size_t>(raw.tris[f][1])];
+    const Vec3& c = raw.positions[static_cast<size_t>(raw.tris[f][2])];
+    const Vec3 n = (b - a).cross(c - a);
+    behind[f] = n.dot(cams[static_cast<size_t>(views[f])].position - (a + b + c) / 3.0) < 0 ? 1 : 0;
+  }
+  return behind;
+}
+
+/// Step 1: charts are faces joined across shared edges when they have the same view and are seen
+/// from the same side of it (seen_from_behind: such faces make charts of their own). Returns each
 /// chart's faces, charts numbered in order of their first face; counts into `truth` the edges
 /// between faces of two planes (plane_edges) and those of them inside one chart.
-std::vector<std::vector<int>> join_charts(const RawMesh& raw, const std::vector<int>& views, SynthTruth& truth) {
+std::vector<std::vector<int>> join_charts(const RawMesh& raw, const std::vector<int>& views,
+                                         const std::vector<uint8_t>& behind, SynthTruth& truth) {
   const size_t F = raw.tris.size();
   std::vector<int> parent(F);
   std::iota(parent.begin(), parent.end(), 0);
@@ -204,7 +221,8 @@ std::vector<std::vector<int>> join_charts(const RawMesh& raw, const std::vector<
       for (int k = 0; k < 3; ++k) {
         const int a = raw.tris[f][static_cast<size_t>(k)], b = raw.tris[f][static_cast<size_t>((k + 1) % 3)];
         for (int g : edge_faces[(static_cast<uint64_t>(std::min(a, b)) << 32) | static_cast<uint64_t>(std::max(a, b))])
-          if (views[static_cast<size_t>(g)] == views[f]) parent[static_cast<size_t>(find(parent, g))] = find(parent, static_cast<int>(f));
+          if (views[static_cast<size_t>(g)] == views[f] && behind[static_cast<size_t>(g)] == behind[f])
+            parent[static_cast<size_t>(find(parent, g))] = find(parent, static_cast<int>(f));
       }
     // charts across planes: edges between faces of two planes that lie inside one chart
     truth.plane_edges = truth.plane_edges_in_chart = 0;
@@ -231,8 +249,8 @@ std::vector<std::vector<int>> join_charts(const RawMesh& raw, const std::vector<
 /// first face's view, mirrored, distorted and given an exposure as the options say, then scaled
 /// down to fit a page when larger; finally guests are laid over hosts (overlap_fraction).
 std::vector<Chart> make_charts(const RawMesh& raw, const std::vector<std::vector<int>>& chart_faces,
-                               const std::vector<int>& views, const std::vector<Camera>& cams,
-                               const SynthOptions& options, Rng& hard) {
+                               const std::vector<int>& views, const std::vector<uint8_t>& behind,
+                               const std::vector<Camera>& cams, const SynthOptions& options, Rng& hard) {
   const size_t C = chart_faces.size();
   std::vector<Chart> charts(C);
   choose_mirrored(chart_faces, options.mirror_fraction, raw.tris.size(), hard, charts);
@@ -250,7 +268,9 @@ std::vector<Chart> make_charts(const RawMesh& raw, const std::vector<std::vector
         throw std::logic_error("synth: chart vertex behind its camera");
       ch.uv.emplace_back(px.x() * cam.texel_scale, -px.y() * cam.texel_scale);
     }
-    distort_chart(ch.uv, ch.mirrored, options, hard);
+    // note: a chart seen from behind is mirrored back, so that its UVs turn like the 3D winding as
+    // every real producer's do (a projection from behind would reverse them: an input fold).
+    distort_chart(ch.uv, ch.mirrored != (behind[static_cast<size_t>(chart_faces[c][0])] != 0), options, hard);
     if (options.exposure_sd > 0) ch.exposure = std::clamp(1 + options.exposure_sd * hard.normal(), 0.5, 1.5);
     Vec2 lo(1e300, 1e300), hi(-1e300, -1e300);
     for (const Vec2& t : ch.uv) {
@@ -499,9 +519,10 @@ void dilate_into_padding(std::vector<Image>& pages, std::vector<std::vector<uint
 
 void build_atlas(const RawMesh& raw, const Shape& shape, const std::vector<int>& views, const SynthOptions& options,
                  Rng& rng, SynthModel& model) {
-  const std::vector<std::vector<int>> chart_faces = join_charts(raw, views, model.truth);
+  const std::vector<uint8_t> behind = seen_from_behind(raw, views, model.truth.cameras);
+  const std::vector<std::vector<int>> chart_faces = join_charts(raw, views, behind, model.truth);
   Rng hard(options.seed, 0x4A5D);  // the hard features' own stream: default outputs unchanged
-  std::vector<Chart> charts = make_charts(raw, chart_faces, views, model.truth.cameras, options, hard);
+  std::vector<Chart> charts = make_charts(raw, chart_faces, views, behind, model.truth.cameras, options, hard);
   const Packing pk = shelf_pack(charts, options, hard);
   TexturedMesh& mesh = model.mesh;
   mesh = TexturedMesh();

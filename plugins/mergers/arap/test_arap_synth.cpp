@@ -102,7 +102,8 @@ TEST(MergersArapSynth, PartialWeldsKeepTheBudgetAndAreTheSameOnEveryThreadCount)
   // Moves refused as fan_overlap at a welded seam end are tried again with that end unwelded
   // (docs/mergers.md step 7, "Partial welds"), on the first pass's lanes and the second pass's
   // speculation alike: the result must not depend on the thread count, and stay flip-free and
-  // within the budget, every face kept.
+  // within the budget, every face kept. Seed 161 (4 accepted of 49 retries): seed 163's building
+  // had none accepted once the generator stopped putting faces seen from behind inside charts.
   json opt = best_merger_options();
   opt["partial_weld_tries"] = 3;
   opt["close_cuts"] = true;
@@ -110,7 +111,7 @@ TEST(MergersArapSynth, PartialWeldsKeepTheBudgetAndAreTheSameOnEveryThreadCount)
   std::vector<json> reports;
   for (const int threads : {1, 4}) {
     set_thread_count(threads);
-    test::Run run(hard_building(163, 5000));
+    test::Run run(hard_building(161, 5000));
     ASSERT_TRUE(run.detect("detectors.region_growing"));
     run.merge("mergers.arap", opt);
     test::expect_valid_atlas(run);
