@@ -224,6 +224,8 @@ struct Move {
   double turn = 0;                         ///< check_orientation: the merged chart's ChartInfo::turn
   OrientationGroups groups{};              ///< check_orientation: the merged chart's ChartInfo::groups
   int fan_wedge = -1;                      ///< check_fans: the wedge whose fan was refused (-1: none)
+  bool fan_welded = false;                 ///< check_fans: fan_wedge is a welded (representative) wedge
+  bool hold_fans = false;                  ///< held fans: over-full boundary fans stay out of the free region
   size_t open_ends = 0;                    ///< partial weld: seam vertices left unwelded (leave_open)
   bool repaired_earlier = false;           ///< partial weld: an earlier try of the move needed the repair
   bool fill_holes = false;                 ///< hole filling: solve with triangles across the merged chart's holes
@@ -299,7 +301,8 @@ class Engine {
   bool evaluate_merge(int a, int b, std::string& reason, Lane& L, Move& mv);
   /// One try of evaluate_merge with the seam vertices in `open` left unwelded (partial_weld_tries).
   /// With `fill`, the solve gets triangles across the merged chart's holes (fill_holes).
-  bool attempt_merge(int a, int b, const std::vector<int>& open, bool fill, std::string& reason, Lane& L, Move& mv);
+  bool attempt_merge(int a, int b, const std::vector<int>& open, bool fill, bool hold, std::string& reason, Lane& L,
+                     Move& mv);
   /// Drops the seam edges touching a vertex of `open` from the move and pairs only the others' wedges.
   void leave_open(Move& mv, const std::vector<int>& open);
   /// After a fan_overlap refusal: the vertex of the refused fan when it is a welded end of the seam
@@ -349,6 +352,13 @@ class Engine {
   /// With fan_targets, after free_region: frees the wedges around each free boundary wedge whose
   /// merged fan's input angles add up to more than a turn (up to max_free_vertices).
   void free_fan_rings(Move& mv);
+  /// Held fans (mv.hold_fans, hold_full_fans option; docs/mergers.md "Held fans"): removes from
+  /// mv.free_w every wedge of an over-full boundary fan (full_boundary_fan) at or next to a free
+  /// wedge, and that fan's ring, welded wedges excepted. Keeps free_w's order.
+  void hold_full_fans(Move& mv);
+  /// Whether wedge w of chart c lies on c's boundary and its faces' input UV angles add up to at
+  /// least 98% of a turn.
+  bool full_boundary_fan(int w, int c) const;
   /// With fan_targets, inside solve: target shapes (inverse rest edge matrices) for the problem
   /// faces around boundary wedges whose input angles add up to more than a turn (docs/mergers.md
   /// step 6, "Fan targets").

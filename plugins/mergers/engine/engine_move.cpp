@@ -14,6 +14,11 @@ namespace texdefrag::merge::detail {
 namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+/// Angle of corner k of the triangle p (radians, in [0, pi]).
+double corner_angle(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 u = a - p, v = b - p;
+  return std::abs(std::atan2(u.x() * v.y() - u.y() * v.x(), u.dot(v)));
+}
 }  // namespace
 
 bool Engine::try_merge(int a, int b, std::string& reason, Lane& L) {
@@ -27,15 +32,25 @@ bool Engine::evaluate_merge(int a, int b, std::string& reason, Lane& L, Move& mv
   // Partial welds (docs/mergers.md step 7): a seam end whose welded fan would wrap past a turn is
   // left unwelded and the move tried again; its seam edge stays cut, a slit the fan can open into.
   std::vector<int> open;
-  bool repaired = false, fill = false;
+  bool repaired = false, fill = false, hold = false;
   for (int tries = 0;; ++tries) {
-    const bool ok = attempt_merge(a, b, open, fill, reason, L, mv);
+    const bool ok = attempt_merge(a, b, open, fill, hold, reason, L, mv);
     mv.repaired_earlier = repaired;
     if (ok) {
       if (fill) ++L.rep.hole_fills_accepted;
+      if (hold) ++L.rep.fan_holds_accepted;
       return true;
     }
     repaired = repaired || mv.repaired;
+    if (opt_.hold_full_fans && !hold && !mv.self && reason == "fan_overlap" && mv.fan_wedge >= 0 && !mv.fan_welded) {
+      // Held fans (docs/mergers.md, "Held fans"): the fan that wrapped is not the weld's but one of the
+      // free region's, which earlier merges had closed below a turn and the solve relaxed towards its
+      // input angles; the same move once more with such fans kept as they are.
+      hold = true;
+      --L.rep.attempted;  // note: the same move again; begin_move counts it once more
+      ++L.rep.fan_hold_retries;
+      continue;
+    }
     if (mv.holes_refused && !fill) {
       // Hole filling (docs/mergers.md, "Hole filling"): the same move once more, its solve steered by
       // triangles across the merged chart's holes.
@@ -52,10 +67,11 @@ bool Engine::evaluate_merge(int a, int b, std::string& reason, Lane& L, Move& mv
   }
 }
 
-bool Engine::attempt_merge(int a, int b, const std::vector<int>& open, bool fill, std::string& reason, Lane& L,
-                           Move& mv) {
+bool Engine::attempt_merge(int a, int b, const std::vector<int>& open, bool fill, bool hold, std::string& reason,
+                           Lane& L, Move& mv) {
   mv = begin_move(a, b, L);
   mv.fill_holes = fill;
+  mv.hold_fans = hold;
   if (!open.empty()) leave_open(mv, open);
   align(mv);
   if (const char* why = check_orientation(mv)) {
@@ -106,6 +122,7 @@ bool Engine::evaluate_welded(Move& mv, std::string& reason, Lane& L) {
     return false;
   }
   free_region(mv);
+  if (mv.hold_fans) hold_full_fans(mv);
   if (opt_.fan_targets) free_fan_rings(mv);
   solve(mv);
   if (mv.fill_failed) {
@@ -362,6 +379,50 @@ void Engine::free_region(Move& mv) {
   }
 }
 
+bool Engine::full_boundary_fan(int w, int c) const {
+  double in = 0;
+  bool boundary = false;
+  faces_of_wedge(w, c, [&](int f, int k) {
+    if (is_boundary(f, k, c) || is_boundary(f, (k + 2) % 3, c)) boundary = true;
+    const size_t g = static_cast<size_t>(f);
+    in += corner_angle(mesh_.corner_texel(g, k), mesh_.corner_texel(g, (k + 1) % 3), mesh_.corner_texel(g, (k + 2) % 3));
+  });
+  // note: within 2% of a turn: the local/global steps overshoot a fan's input angles by a few
+  // degrees (a fan of 357 input degrees refused at 360.2 on the 20k synthetic factory).
+  constexpr double kTwoPi = 6.283185307179586, kMargin = 0.02;
+  return boundary && in >= kTwoPi * (1 - kMargin);
+}
+
+void Engine::hold_full_fans(Move& mv) {
+  // A fan changes when its wedge or one of its ring moves: every over-full boundary fan at a free
+  // wedge or next to one is held by keeping its wedge and ring (welded wedges excepted) pinned, so its
+  // faces keep the shape earlier merges gave them.
+  Lane& L = *mv.lane;
+  std::unordered_set<int> seen, held;
+  auto ring = [&](int x, auto&& fn) {
+    faces_of_wedge(x, mv.big, [&](int f, int k) {
+      for (int j = 1; j < 3; ++j) fn(wedge(f, (k + j) % 3));
+    });
+  };
+  auto welded = [&](int x) { return wrep_[static_cast<size_t>(x)] == L.epoch; };
+  auto consider = [&](int x) {
+    if (!seen.insert(x).second || welded(x) || !full_boundary_fan(x, mv.big)) return;
+    held.insert(x);
+    ring(x, [&](int u) {
+      if (!welded(u)) held.insert(u);
+    });
+  };
+  for (int w : mv.free_w) {
+    consider(w);
+    ring(w, consider);
+  }
+  if (held.empty()) return;
+  std::vector<int> kept;
+  for (int w : mv.free_w)
+    if (!held.count(w)) kept.push_back(w);
+  mv.free_w = std::move(kept);
+}
+
 void Engine::free_fan_rings(Move& mv) {
   // A boundary fan whose input angles add up to more than a turn can only close at fan_targets'
   // angles when the wedges around it may move too: with a small weld displacement the free region
@@ -473,14 +534,6 @@ void Engine::solve(Move& mv) {
     });
 }
 
-namespace {
-/// Angle of corner k of the triangle p (radians, in [0, pi]).
-double corner_angle(const Vec2& p, const Vec2& a, const Vec2& b) {
-  const Vec2 u = a - p, v = b - p;
-  return std::abs(std::atan2(u.x() * v.y() - u.y() * v.x(), u.dot(v)));
-}
-}  // namespace
-
 void Engine::fan_targets(const Move& mv, std::unordered_map<int, Mat2>& target) {
   Lane& L = *mv.lane;
   // A boundary wedge of the merged chart whose faces' input UV angles add up to more than a full
@@ -556,7 +609,7 @@ const char* Engine::check(Move& mv) {
   // move is tried again never depends on the budget, which a second-pass speculation's lane does not
   // know (engine_speculate.cpp): the same tries on every thread count. The order changes only which
   // refusal is reported, never whether a move is accepted.
-  const bool fans_first = opt_.partial_weld_tries > 0 || opt_.fill_holes;
+  const bool fans_first = opt_.partial_weld_tries > 0 || opt_.fill_holes || opt_.hold_full_fans;
   if (fans_first)
     if (const char* why = check_fans(mv)) return why;
   if (const char* why = check_distortion(mv)) return why;
@@ -693,6 +746,7 @@ const char* Engine::check_fans(Move& mv) {
         if (then >= kTwoPi * (1 - 1e-9) && now <= then + 1e-9) continue;
       }
       mv.fan_wedge = w;
+      mv.fan_welded = wrep_[static_cast<size_t>(w)] == L.epoch;
       return "fan_overlap";
     }
   return nullptr;

@@ -707,6 +707,8 @@ void add_counters(MergeReport& to, const MergeReport& from) {
   to.hole_fill_retries += from.hole_fill_retries;
   to.hole_fills_accepted += from.hole_fills_accepted;
   to.holes_filled += from.holes_filled;
+  to.fan_hold_retries += from.fan_hold_retries;
+  to.fan_holds_accepted += from.fan_holds_accepted;
   to.cuts_attempted += from.cuts_attempted;
   to.cuts_closed += from.cuts_closed;
   to.cut_edges_closed += from.cut_edges_closed;

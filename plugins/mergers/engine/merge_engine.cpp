@@ -142,6 +142,10 @@ std::vector<OptionSpec> trial_and_weld_specs() {
                "(a boundary loop other than its outer one) is tried again with temporary triangles across its holes "
                "in the solve, so that a chart that is not a disk keeps its holes open while it deforms; the "
                "triangles never reach the atlas"),
+      opt_bool("hold_full_fans", false,
+               "A move refused as fan_overlap at a wedge it did not weld is tried again with the free region's "
+               "boundary fans whose input UV angles add up to a turn or more (within 2%) held where earlier merges "
+               "left them (their wedge and its one ring are not freed)"),
       opt_bool("cross_page", true,
                "Merge charts whose texels lie on different input pages (each face keeps its own page's texels as "
                "rest shape); false keeps every chart on one input page")
@@ -185,6 +189,7 @@ MergeOptions merge_options_from(const Options& o) {
   m.fan_margin = o.get_double("fan_margin");
   m.partial_weld_tries = static_cast<int>(o.get_int("partial_weld_tries"));
   m.fill_holes = o.get_bool("fill_holes");
+  m.hold_full_fans = o.get_bool("hold_full_fans");
   m.second_pass = o.get_enum<SecondPass>("second_pass", {{"none", SecondPass::None}, {"across_regions", SecondPass::AcrossRegions}});
   m.second_pass_priority =
       o.get_enum<Priority>("second_pass_priority", {{"planarity", Priority::Planarity}, {"mmethod", Priority::MMethod}});
@@ -238,6 +243,8 @@ json MergeReport::to_json() const {
   j["hole_fill_retries"] = hole_fill_retries;
   j["hole_fills_accepted"] = hole_fills_accepted;
   j["holes_filled"] = holes_filled;
+  j["fan_hold_retries"] = fan_hold_retries;
+  j["fan_holds_accepted"] = fan_holds_accepted;
   j["cut_edges_in"] = cut_edges_in;
   j["cuts_attempted"] = cuts_attempted;
   j["cuts_closed"] = cuts_closed;

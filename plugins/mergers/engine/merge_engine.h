@@ -102,6 +102,10 @@ struct MergeOptions {
   /// A move refused as fan_overlap whose local problem touches a hole of the merged chart is tried
   /// again with temporary triangles across its holes (docs/mergers.md, "Hole filling").
   bool fill_holes = false;
+  /// A move refused as fan_overlap at a wedge it did not weld is tried again with every boundary fan
+  /// of the free region whose input UV angles add up to a turn or more (within 2%) held where it is:
+  /// the fan's wedge and its one ring leave the free region (docs/mergers.md, "Held fans").
+  bool hold_full_fans = false;
   /// Queue entries the second pass (and a speculating first pass, below) evaluates side by side
   /// (docs/mergers.md, "Parallel second pass"):
   /// 0 = twice thread_count() (1 with one thread), 1 = one at a time. Not a stage option (the result is the same for any
@@ -171,6 +175,8 @@ struct MergeReport {
   /// fill_holes: moves tried again with triangles across their holes (after a fan_overlap refusal),
   /// those then accepted, and the holes given triangles, summed over those solves.
   size_t hole_fill_retries = 0, hole_fills_accepted = 0, holes_filled = 0;
+  /// hold_full_fans: moves tried again with their over-full boundary fans held, and those then accepted.
+  size_t fan_hold_retries = 0, fan_holds_accepted = 0;
   size_t cut_edges_in = 0;       ///< self-seam edges (both sides in one chart) when closing started
   size_t cuts_attempted = 0;     ///< closing moves tried (close_cuts)
   size_t cuts_closed = 0;        ///< closing moves accepted

@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace texdefrag::merge {
@@ -855,6 +856,71 @@ TEST(MergeEngineSteps, AMoveMayNotLeaveATriangleTooLowForAFloat32File) {
     else EXPECT_STRNE(why, "flip");
     s.engine.rollback();
   }
+}
+
+/// Position 0 is the centre C of a fan of five triangles (C, P_i, P_i+1), i = 0..4, over the rim
+/// positions 1..6 (P_i = position i + 1): P_i = (cos 72i, sin 72i, +-h), +h for even i, with
+/// h^2 = (cos 72 - cos 80) / (1 + cos 80), so every triangle's angle at C is 80 degrees. C is on the
+/// mesh boundary (P_0 and P_5 differ) and its fan adds up to 400 degrees: its UVs, the exact
+/// development (16 texels per unit, P_i at 80i degrees around (64, 64)), overlap themselves. Face 5
+/// is (P_2, P_1, Q) with Q = P_1 + P_2, a copy of face 1 across the rim edge P_1-P_2, laid out
+/// 1.5x too large elsewhere on the page: the second chart, whose weld moves the seam wedges.
+TexturedMesh over_full_fan() {
+  TexturedMesh m = test::one_page_mesh(256);
+  const double d2r = 3.141592653589793 / 180;
+  const double h = std::sqrt((std::cos(72 * d2r) - std::cos(80 * d2r)) / (1 + std::cos(80 * d2r)));
+  m.positions.emplace_back(0, 0, 0);
+  std::vector<Vec2> t{Vec2(64, 64)};
+  for (int i = 0; i <= 5; ++i) {
+    m.positions.emplace_back(std::cos(72 * i * d2r), std::sin(72 * i * d2r), i % 2 ? -h : h);
+    t.push_back(Vec2(64, 64) + 16 * std::sqrt(1 + h * h) * Vec2(std::cos(80 * i * d2r), std::sin(80 * i * d2r)));
+  }
+  for (int i = 0; i < 5; ++i) test::add_texel_face(m, {0, i + 1, i + 2}, {t[0], t[size_t(i) + 1], t[size_t(i) + 2]});
+  m.positions.push_back(m.positions[2] + m.positions[3]);
+  const Vec2 q = t[1] + t[2] - t[0], shift(120, 40), mid = (t[1] + t[2] + q) / 3 + shift;
+  auto far = [&](const Vec2& p) { return mid + 1.5 * (p + shift - mid); };
+  test::add_texel_face(m, {3, 2, 7}, {far(t[2]), far(t[1]), far(q)});
+  return m;
+}
+
+TEST(MergeEngineSteps, HeldFansKeepAnOverFullBoundaryFanAndItsRingPinned) {
+  MergeOptions opt;
+  opt.priority = Priority::MMethod;
+  opt.alpha = 100;  // the whole merged chart within reach of the weld
+  test::Run run(over_full_fan());
+  ArapSolver solver;
+  detail::Engine engine(run.mesh, run.topo, run.ctx.atlas, run.ctx.regions.face_region, opt, solver);
+  engine.setup();
+  const Atlas& at = run.ctx.atlas;
+  const int fan = at.face_chart[0], tri = at.face_chart[5];
+  ASSERT_EQ(at.num_charts, 2);
+  for (int f = 1; f < 5; ++f) ASSERT_EQ(at.face_chart[static_cast<size_t>(f)], fan);
+  auto w = [&](int f, int k) { return at.face_wedge[static_cast<size_t>(f)][static_cast<size_t>(k)]; };
+  const int c = w(0, 0), p0 = w(0, 1), p1 = w(0, 2), p2 = w(1, 2), p3 = w(2, 2), p4 = w(3, 2), p5 = w(4, 2);
+  detail::Move mv = engine.begin_move(fan, tri);
+  EXPECT_EQ(mv.big, fan);  // five 80-degree triangles against one 1.5x as large
+  engine.align(mv);
+  engine.weld(mv);
+  // The rim edge is 16 x 2 sqrt(1 + h^2) sin 40 = 21.72 texels, the 1.5x copy's 32.58: centred by the
+  // rigid fit, each end's two wedges lie 5.43 apart and move 2.715 to their mean.
+  EXPECT_NEAR(mv.dmax, 2.715, 1e-3);
+  const int q = w(5, 2);
+  engine.free_region(mv);
+  auto sorted = [](std::vector<int> v) {
+    std::sort(v.begin(), v.end());
+    return v;
+  };
+  EXPECT_EQ(sorted(mv.free_w), sorted({c, p0, p1, p2, p3, p4, p5, q}));
+  EXPECT_TRUE(engine.full_boundary_fan(c, fan));    // 400 degrees on the boundary
+  EXPECT_FALSE(engine.full_boundary_fan(p1, fan));  // 50 + 50 + 50 degrees
+  // C and its ring leave the free region, except the welded P_1 and P_2; Q (not in C's ring) stays.
+  engine.hold_full_fans(mv);
+  EXPECT_EQ(sorted(mv.free_w), sorted({p1, p2, q}));
+  const Vec2 c_before = at.wedge_uv[static_cast<size_t>(c)];
+  engine.solve(mv);
+  EXPECT_TRUE(mv.solved);
+  EXPECT_EQ(at.wedge_uv[static_cast<size_t>(c)], c_before);  // held where it was
+  engine.rollback();
 }
 
 }  // namespace
