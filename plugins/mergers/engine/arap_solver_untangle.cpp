@@ -104,6 +104,30 @@ double min_det(const LocalProblem& p) {
   return m;
 }
 
+/// One L-BFGS memory pair: position change s, gradient change y, and s.y (the two-loop recursion reads
+/// it twice per pair and step; y.s and s.y are the same bits: the products commute, the sum's order is
+/// Eigen's either way).
+struct LbfgsPair {
+  Eigen::VectorXd s, y;
+  double sy;
+};
+
+/// The two-loop recursion: -H g, H the inverse Hessian estimate of mem (oldest first; H = I when empty).
+Eigen::VectorXd lbfgs_direction(const std::deque<LbfgsPair>& mem, const Eigen::VectorXd& g) {
+  Eigen::VectorXd q = g;
+  std::vector<double> alpha(mem.size());
+  for (size_t i = mem.size(); i-- > 0;) {
+    alpha[i] = mem[i].s.dot(q) / mem[i].sy;
+    q -= alpha[i] * mem[i].y;
+  }
+  if (!mem.empty()) q *= mem.back().sy / mem.back().y.squaredNorm();
+  for (size_t i = 0; i < mem.size(); ++i) {
+    const double beta = mem[i].y.dot(q) / mem[i].sy;
+    q += (alpha[i] - beta) * mem[i].s;
+  }
+  return -q;
+}
+
 /// L-BFGS (memory 7) with Armijo backtracking on untangle_energy at a fixed eps, from p's positions
 /// whose energy `e` the last untangle_energy() call gave (its terms are in sc); at most `iterations`
 /// steps. Leaves p at the best point found and returns its energy (sc's terms are then stale). The
@@ -114,21 +138,9 @@ double minimise_lbfgs(LocalProblem& p, const std::vector<Mat23>& G, double eps, 
   constexpr int kMemory = 7;
   Eigen::VectorXd x = free_positions(p), g, gn;
   untangle_gradient(p, G, sc, g);
-  std::deque<std::pair<Eigen::VectorXd, Eigen::VectorXd>> mem;  // (s, y) pairs, newest last
+  std::deque<LbfgsPair> mem;  // newest last
   for (int it = 0; it < iterations; ++it) {
-    // Two-loop recursion: d = -H g.
-    Eigen::VectorXd q = g;
-    std::vector<double> alpha(mem.size());
-    for (size_t i = mem.size(); i-- > 0;) {
-      alpha[i] = mem[i].first.dot(q) / mem[i].second.dot(mem[i].first);
-      q -= alpha[i] * mem[i].second;
-    }
-    if (!mem.empty()) q *= mem.back().first.dot(mem.back().second) / mem.back().second.squaredNorm();
-    for (size_t i = 0; i < mem.size(); ++i) {
-      const double beta = mem[i].second.dot(q) / mem[i].second.dot(mem[i].first);
-      q += (alpha[i] - beta) * mem[i].first;
-    }
-    Eigen::VectorXd d = -q;
+    Eigen::VectorXd d = lbfgs_direction(mem, g);
     double slope = g.dot(d);
     if (!(slope < 0)) {  // not a descent direction: restart from steepest descent
       mem.clear();
@@ -159,8 +171,9 @@ double minimise_lbfgs(LocalProblem& p, const std::vector<Mat23>& G, double eps, 
     const double rel = (e - en) / std::max(std::abs(e), 1e-300);
     e = en;
     g = gn;
-    if (s.dot(y) > 1e-12 * s.norm() * y.norm()) {
-      mem.emplace_back(std::move(s), std::move(y));
+    const double sy = s.dot(y);
+    if (sy > 1e-12 * s.norm() * y.norm()) {
+      mem.push_back({std::move(s), std::move(y), sy});
       if (static_cast<int>(mem.size()) > kMemory) mem.pop_front();
     }
     if (rel < 1e-9) break;
