@@ -35,10 +35,12 @@ struct SymmetricAmdOrdering {
   }
 };
 
-/// The constant part of a problem's local/global iteration: per-triangle gradient operators and the
-/// factorised global matrix K = sum_t w_t D_t^T D_t over the free coordinates.
+/// The constant part of a problem's local/global iteration: per-triangle gradient rows G_t
+/// (gradient_rows) and the factorised global matrix L = sum_t w_t G_t^T G_t over the free positions.
+/// L is both diagonal blocks of the interleaved 2n x 2n K = sum_t w_t D_t^T D_t, whose x-y blocks are
+/// zero (local_problem.h): one n x n factorisation serves x and y, at a quarter of K's nonzeros.
 struct ArapSystem {
-  std::vector<Mat46> D;
+  std::vector<Mat23> G;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, SymmetricAmdOrdering> ldlt;
 };
 
@@ -53,9 +55,10 @@ struct Evaluation {
 struct Scratch {
   ArapSystem sys;
   std::vector<Eigen::Triplet<double>> trip;
-  std::vector<Eigen::Vector4d> res;  ///< per triangle: vec(F - R(F)) (row-major) at the last evaluate()
-  std::vector<double> smallest;      ///< per triangle: smaller signed singular value, when asked for
-  Eigen::VectorXd g, step;
+  std::vector<Mat2> res;          ///< per triangle: F - R(F) at the last evaluate()
+  std::vector<double> smallest;   ///< per triangle: smaller signed singular value, when asked for
+  Eigen::MatrixX2d g, solution;   ///< per free position: global step's gradient, its solution (x, y)
+  Eigen::VectorXd step;           ///< the solution interleaved (x then y per position)
   std::vector<Vec2> base;
 };
 
@@ -64,30 +67,35 @@ Scratch& scratch() {
   return s;
 }
 
-/// Builds sys for p (K's lower triangle, then its factorisation); false when K is singular.
-bool build_system(const LocalProblem& p, ArapSystem& sys, std::vector<Eigen::Triplet<double>>& trip) {
+/// Appends triangle t's lower-triangle entries of w_t G_t^T G_t between free positions to trip.
+void append_triangle(const LocalProblem& p, size_t t, const Mat23& G, std::vector<Eigen::Triplet<double>>& trip) {
   const int n = p.num_free;
-  sys.D.resize(p.tri.size());
-  trip.clear();
-  trip.reserve(p.tri.size() * 21);
-  for (size_t t = 0; t < p.tri.size(); ++t) {
-    sys.D[t] = gradient_operator(p.rest_inv[t]);
-    const Eigen::Matrix<double, 6, 6> K = p.weight[t] * sys.D[t].transpose() * sys.D[t];
-    for (int a = 0; a < 6; ++a) {
-      const int va = p.tri[t][static_cast<size_t>(a / 2)];
-      if (va >= n) continue;
-      for (int b = 0; b < 6; ++b) {
-        const int vb = p.tri[t][static_cast<size_t>(b / 2)];
-        const int row = 2 * va + a % 2, col = 2 * vb + b % 2;
-        // note: the factorisation (and its ordering) reads only K's lower triangle.
-        if (vb >= n || row < col) continue;
-        trip.emplace_back(row, col, K(a, b));
-      }
+  const Eigen::Matrix3d K = p.weight[t] * G.transpose() * G;
+  for (int a = 0; a < 3; ++a) {
+    const int va = p.tri[t][static_cast<size_t>(a)];
+    if (va >= n) continue;
+    for (int b = 0; b < 3; ++b) {
+      const int vb = p.tri[t][static_cast<size_t>(b)];
+      // note: the factorisation (and its ordering) reads only L's lower triangle.
+      if (vb >= n || va < vb) continue;
+      trip.emplace_back(va, vb, K(a, b));
     }
   }
-  Eigen::SparseMatrix<double> K(2 * n, 2 * n);
-  K.setFromTriplets(trip.begin(), trip.end());
-  sys.ldlt.compute(K);
+}
+
+/// Builds sys for p (L's lower triangle, then its factorisation); false when L is singular.
+bool build_system(const LocalProblem& p, ArapSystem& sys, std::vector<Eigen::Triplet<double>>& trip) {
+  const int n = p.num_free;
+  sys.G.resize(p.tri.size());
+  trip.clear();
+  trip.reserve(p.tri.size() * 6);
+  for (size_t t = 0; t < p.tri.size(); ++t) {
+    sys.G[t] = gradient_rows(p.rest_inv[t]);
+    append_triangle(p, t, sys.G[t], trip);
+  }
+  Eigen::SparseMatrix<double> L(n, n);
+  L.setFromTriplets(trip.begin(), trip.end());
+  sys.ldlt.compute(L);
   return sys.ldlt.info() == Eigen::Success;
 }
 
@@ -106,7 +114,7 @@ Evaluation evaluate(const LocalProblem& p, Scratch& sc, bool smallest) {
     e += p.weight[t] * (F - Rm).squaredNorm();
     w += p.weight[t];
     if (F.determinant() <= 0) ++ev.inverted;
-    sc.res[t] << F(0, 0) - Rm(0, 0), F(0, 1) - Rm(0, 1), F(1, 0) - Rm(1, 0), F(1, 1) - Rm(1, 1);
+    sc.res[t] = F - Rm;
     if (smallest) sc.smallest[t] = signed_singular_values_2x2(F)[1];
   }
   ev.energy = w > 0 ? e / w : 0;
@@ -118,16 +126,22 @@ Evaluation evaluate(const LocalProblem& p, Scratch& sc, bool smallest) {
 /// resulting quadratic.
 void local_global_step(const LocalProblem& p, const ArapSystem& sys, Scratch& sc) {
   const int n = p.num_free;
-  sc.g.setZero(2 * n);
+  sc.g.setZero(n, 2);
   for (size_t t = 0; t < p.tri.size(); ++t) {
-    const Eigen::Vector4d& res = sc.res[t];
-    const Eigen::Matrix<double, 6, 1> gl = p.weight[t] * sys.D[t].transpose() * res;
-    for (int a = 0; a < 6; ++a) {
-      const int va = p.tri[t][static_cast<size_t>(a / 2)];
-      if (va < n) sc.g[2 * va + a % 2] += gl[a];
+    // note: row k of gl is corner k's (x, y) gradient: w G^T (F - R)^T, D^T vec(F - R) without D's zeros.
+    const Eigen::Matrix<double, 3, 2> gl = p.weight[t] * sys.G[t].transpose() * sc.res[t].transpose();
+    for (int k = 0; k < 3; ++k) {
+      const int v = p.tri[t][static_cast<size_t>(k)];
+      if (v < n) sc.g.row(v) += gl.row(k);
     }
   }
-  sc.step = sys.ldlt.solve(-sc.g);
+  sc.g = -sc.g;
+  sc.solution = sys.ldlt.solve(sc.g);
+  sc.step.resize(2 * n);
+  for (int i = 0; i < n; ++i) {
+    sc.step[2 * i] = sc.solution(i, 0);
+    sc.step[2 * i + 1] = sc.solution(i, 1);
+  }
 }
 
 /// Moves p's free positions to base + t * step.

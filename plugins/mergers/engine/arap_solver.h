@@ -2,7 +2,8 @@
 // merge's free region against the input UV triangles, as the M-method (Maggiordomo et al. 2021)
 // optimises after each weld. The global step's matrix (area-weighted cotangent Laplacian of the
 // input UV triangles, pinned wedges eliminated) is constant, so it is factorised once per problem
-// (Eigen SimplicialLDLT) and every iteration is one back-substitution.
+// (Eigen SimplicialLDLT) and every iteration is one back-substitution. x and y share it: the 2n x 2n
+// system's x-y blocks are zero and its x and y blocks equal (gradient_rows), so it is n x n.
 #pragma once
 
 #include "local_problem.h"

@@ -72,7 +72,7 @@ double untangle_energy(const LocalProblem& p, double eps, UntangleScratch& sc) {
 
 /// The gradient of untangle_energy() over the free coordinates into grad, from the terms its last
 /// call kept (the point it evaluated).
-void untangle_gradient(const LocalProblem& p, const std::vector<Mat46>& D, const UntangleScratch& sc,
+void untangle_gradient(const LocalProblem& p, const std::vector<Mat23>& G, const UntangleScratch& sc,
                        Eigen::VectorXd& grad) {
   double wsum = 0;
   grad.setZero(2 * p.num_free);
@@ -85,12 +85,13 @@ void untangle_gradient(const LocalProblem& p, const std::vector<Mat46>& D, const
     cof << J(1, 1), -J(1, 0), -J(0, 1), J(0, 0);
     // note: dchi/dD = chi / sqrt(eps^2 + D^2).
     const Mat2 dfdJ = (2 * (1 - kTheta) * J + 2 * kTheta * det * cof - f * (c / s) * cof) / c;
-    Eigen::Vector4d v;
-    v << dfdJ(0, 0), dfdJ(0, 1), dfdJ(1, 0), dfdJ(1, 1);
-    const Eigen::Matrix<double, 6, 1> gl = p.weight[t] * D[t].transpose() * v;
-    for (int a = 0; a < 6; ++a) {
-      const int va = p.tri[t][static_cast<size_t>(a / 2)];
-      if (va < p.num_free) grad[2 * va + a % 2] += gl[a];
+    // note: row k of gl is corner k's (x, y) gradient, D^T vec(dfdJ) without D's zeros (gradient_rows).
+    const Eigen::Matrix<double, 3, 2> gl = p.weight[t] * G[t].transpose() * dfdJ.transpose();
+    for (int k = 0; k < 3; ++k) {
+      const int v = p.tri[t][static_cast<size_t>(k)];
+      if (v >= p.num_free) continue;
+      grad[2 * v] += gl(k, 0);
+      grad[2 * v + 1] += gl(k, 1);
     }
   }
   if (wsum <= 0) return;
@@ -103,31 +104,43 @@ double min_det(const LocalProblem& p) {
   return m;
 }
 
+/// One L-BFGS memory pair: position change s, gradient change y, and s.y (the two-loop recursion reads
+/// it twice per pair and step; y.s and s.y are the same bits: the products commute, the sum's order is
+/// Eigen's either way).
+struct LbfgsPair {
+  Eigen::VectorXd s, y;
+  double sy;
+};
+
+/// The two-loop recursion: -H g, H the inverse Hessian estimate of mem (oldest first; H = I when empty).
+Eigen::VectorXd lbfgs_direction(const std::deque<LbfgsPair>& mem, const Eigen::VectorXd& g) {
+  Eigen::VectorXd q = g;
+  std::vector<double> alpha(mem.size());
+  for (size_t i = mem.size(); i-- > 0;) {
+    alpha[i] = mem[i].s.dot(q) / mem[i].sy;
+    q -= alpha[i] * mem[i].y;
+  }
+  if (!mem.empty()) q *= mem.back().sy / mem.back().y.squaredNorm();
+  for (size_t i = 0; i < mem.size(); ++i) {
+    const double beta = mem[i].y.dot(q) / mem[i].sy;
+    q += (alpha[i] - beta) * mem[i].s;
+  }
+  return -q;
+}
+
 /// L-BFGS (memory 7) with Armijo backtracking on untangle_energy at a fixed eps, from p's positions
 /// whose energy `e` the last untangle_energy() call gave (its terms are in sc); at most `iterations`
 /// steps. Leaves p at the best point found and returns its energy (sc's terms are then stale). The
 /// gradient is formed only at points the line search accepts (the same numbers as forming it at every
 /// trial).
-double minimise_lbfgs(LocalProblem& p, const std::vector<Mat46>& D, double eps, int iterations, double e,
+double minimise_lbfgs(LocalProblem& p, const std::vector<Mat23>& G, double eps, int iterations, double e,
                       UntangleScratch& sc) {
   constexpr int kMemory = 7;
   Eigen::VectorXd x = free_positions(p), g, gn;
-  untangle_gradient(p, D, sc, g);
-  std::deque<std::pair<Eigen::VectorXd, Eigen::VectorXd>> mem;  // (s, y) pairs, newest last
+  untangle_gradient(p, G, sc, g);
+  std::deque<LbfgsPair> mem;  // newest last
   for (int it = 0; it < iterations; ++it) {
-    // Two-loop recursion: d = -H g.
-    Eigen::VectorXd q = g;
-    std::vector<double> alpha(mem.size());
-    for (size_t i = mem.size(); i-- > 0;) {
-      alpha[i] = mem[i].first.dot(q) / mem[i].second.dot(mem[i].first);
-      q -= alpha[i] * mem[i].second;
-    }
-    if (!mem.empty()) q *= mem.back().first.dot(mem.back().second) / mem.back().second.squaredNorm();
-    for (size_t i = 0; i < mem.size(); ++i) {
-      const double beta = mem[i].second.dot(q) / mem[i].second.dot(mem[i].first);
-      q += (alpha[i] - beta) * mem[i].first;
-    }
-    Eigen::VectorXd d = -q;
+    Eigen::VectorXd d = lbfgs_direction(mem, g);
     double slope = g.dot(d);
     if (!(slope < 0)) {  // not a descent direction: restart from steepest descent
       mem.clear();
@@ -152,14 +165,15 @@ double minimise_lbfgs(LocalProblem& p, const std::vector<Mat46>& D, double eps, 
       set_free_positions(p, x);
       break;
     }
-    untangle_gradient(p, D, sc, gn);
+    untangle_gradient(p, G, sc, gn);
     Eigen::VectorXd s = step * d, y = gn - g;
     x += s;
     const double rel = (e - en) / std::max(std::abs(e), 1e-300);
     e = en;
     g = gn;
-    if (s.dot(y) > 1e-12 * s.norm() * y.norm()) {
-      mem.emplace_back(std::move(s), std::move(y));
+    const double sy = s.dot(y);
+    if (sy > 1e-12 * s.norm() * y.norm()) {
+      mem.push_back({std::move(s), std::move(y), sy});
       if (static_cast<int>(mem.size()) > kMemory) mem.pop_front();
     }
     if (rel < 1e-9) break;
@@ -181,14 +195,14 @@ bool untangle(LocalProblem& p, const UntangleSettings& s) {
         deformation_gradient(p, t).determinant() <= 0)
       return false;
   }
-  std::vector<Mat46> D(p.tri.size());
-  for (size_t t = 0; t < p.tri.size(); ++t) D[t] = gradient_operator(p.rest_inv[t]);
+  std::vector<Mat23> G(p.tri.size());
+  for (size_t t = 0; t < p.tri.size(); ++t) G[t] = gradient_rows(p.rest_inv[t]);
   double eps = std::sqrt(1e-12 + 0.04 * dmin * dmin);
   const Eigen::VectorXd start = free_positions(p);
   UntangleScratch sc;
   for (int outer = 0; outer < s.outer_iterations; ++outer) {
     const double e_prev = untangle_energy(p, eps, sc);
-    const double e = minimise_lbfgs(p, D, eps, s.inner_iterations, e_prev, sc);
+    const double e = minimise_lbfgs(p, G, eps, s.inner_iterations, e_prev, sc);
     dmin = min_det(p);
     if (dmin > 0) return true;
     // Garanzha et al. 2021, section 4: shrink eps with the progress made, keeping it above the

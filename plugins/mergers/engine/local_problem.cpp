@@ -7,14 +7,23 @@
 
 namespace texdefrag::merge {
 
-Mat46 gradient_operator(const Mat2& rest_inv) {
-  // F_ij = sum_k c_kj * x_k,i with c_0j = -(R_0j + R_1j), c_1j = R_0j, c_2j = R_1j.
-  Mat46 D = Mat46::Zero();
+Mat23 gradient_rows(const Mat2& rest_inv) {
+  // G(j, k) = c_kj with c_0j = -(R_0j + R_1j), c_1j = R_0j, c_2j = R_1j (F_ij = sum_k c_kj x_k,i).
+  Mat23 G;
   for (int j = 0; j < 2; ++j) {
-    const double c[3] = {-(rest_inv(0, j) + rest_inv(1, j)), rest_inv(0, j), rest_inv(1, j)};
-    for (int i = 0; i < 2; ++i)
-      for (int k = 0; k < 3; ++k) D(i * 2 + j, 2 * k + i) = c[k];
+    G(j, 0) = -(rest_inv(0, j) + rest_inv(1, j));
+    G(j, 1) = rest_inv(0, j);
+    G(j, 2) = rest_inv(1, j);
   }
+  return G;
+}
+
+Mat46 gradient_operator(const Mat2& rest_inv) {
+  const Mat23 G = gradient_rows(rest_inv);
+  Mat46 D = Mat46::Zero();
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 2; ++j)
+      for (int k = 0; k < 3; ++k) D(i * 2 + j, 2 * k + i) = G(j, k);
   return D;
 }
 

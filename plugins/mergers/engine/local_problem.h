@@ -20,6 +20,7 @@ namespace texdefrag::merge {
 using Vec2 = Eigen::Vector2d;
 using Mat2 = Eigen::Matrix2d;
 using Mat46 = Eigen::Matrix<double, 4, 6>;
+using Mat23 = Eigen::Matrix<double, 2, 3>;
 
 /// A local problem: positions of the wedges it touches, the free ones first.
 struct LocalProblem {
@@ -62,7 +63,14 @@ class LocalSolver {
   virtual bool reentrant() const { return false; }
 };
 
-/// The 4x6 matrix D with vec(F) = D * local corner coordinates, for a triangle with rest_inv.
+/// The 2x3 matrix G with F.row(i)^T = G * (corner 0, 1, 2's coordinate i), the same for i = 0 (x) and
+/// i = 1 (y), for a triangle with rest_inv: G = rest_inv^T * [[-1, 1, 0], [-1, 0, 1]]. D below is G
+/// once per coordinate (F's row i depends on the corners' coordinate i only), so D^T D has no x-y
+/// entries and both diagonal blocks are G^T G: the ARAP global step is one n x n system for x and y.
+Mat23 gradient_rows(const Mat2& rest_inv);
+
+/// The 4x6 matrix D with vec(F) = D * local corner coordinates, for a triangle with rest_inv
+/// (D(2i + j, 2k + i) = gradient_rows(rest_inv)(j, k), zero elsewhere).
 Mat46 gradient_operator(const Mat2& rest_inv);
 
 /// Deformation gradient of triangle t of p at the current positions. (Inline, as the two below: the

@@ -234,6 +234,104 @@ TEST(MergeEngine, ArapRestoresTheRestShape) {
   EXPECT_LT(arap_energy(p), 1e-10);
 }
 
+/// vec(F) (row-major) of triangle t of p as a 4x6 matrix of its corners' (x, y), read off
+/// deformation_gradient() at unit corner positions (F is linear in them): independent of gradient_rows.
+Mat46 gradient_by_unit_positions(const LocalProblem& p, size_t t) {
+  LocalProblem one;
+  one.tri = {{0, 1, 2}};
+  one.rest_inv = {p.rest_inv[t]};
+  Mat46 D;
+  for (int c = 0; c < 6; ++c) {
+    one.x.assign(3, Vec2::Zero());
+    one.x[static_cast<size_t>(c / 2)][c % 2] = 1;
+    const Mat2 F = deformation_gradient(one, 0);
+    D.col(c) << F(0, 0), F(0, 1), F(1, 0), F(1, 1);
+  }
+  return D;
+}
+
+/// A 4x4-vertex grid, the 4 inner vertices free (first), the ring pinned; rest shapes sheared and
+/// scaled per triangle, weights unequal, positions jittered, so no x-y coupling cancels by symmetry.
+LocalProblem sheared_grid() {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.3, 0.3);
+  LocalProblem p;
+  std::vector<int> id(16);
+  int next_free = 0, next_pinned = 4;
+  for (int j = 0; j < 4; ++j)
+    for (int i = 0; i < 4; ++i) id[static_cast<size_t>(j * 4 + i)] = (i % 3 && j % 3) ? next_free++ : next_pinned++;
+  p.x.resize(16);
+  for (int j = 0; j < 4; ++j)
+    for (int i = 0; i < 4; ++i) p.x[static_cast<size_t>(id[static_cast<size_t>(j * 4 + i)])] = Vec2(i + u(rng), j + u(rng));
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) {
+      const int a = id[static_cast<size_t>(j * 4 + i)], b = id[static_cast<size_t>(j * 4 + i + 1)];
+      const int c = id[static_cast<size_t>(j * 4 + i + 5)], d = id[static_cast<size_t>(j * 4 + i + 4)];
+      for (const auto& t : {std::array<int, 3>{a, b, c}, std::array<int, 3>{a, c, d}}) {
+        Mat2 Dm;
+        Dm << 1.5 + u(rng), 0.7 + u(rng), u(rng), 0.8 + u(rng);
+        p.tri.push_back(t);
+        p.rest_inv.push_back(Dm.inverse());
+        p.weight.push_back(1 + 3 * std::abs(u(rng)));
+      }
+    }
+  p.num_free = 4;
+  return p;
+}
+
+TEST(MergeEngine, ArapStepMatchesTheCoupledSystem) {
+  // One local/global step of the solver (its n x n system for x and y) against the dense 2n x 2n
+  // minimiser of sum_t w_t |D_t x - vec(R_t)|^2 over the free coordinates, R_t fixed at the start.
+  LocalProblem p = sheared_grid();
+  const int n = p.num_free;
+  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(2 * n, 2 * n);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(2 * n);
+  for (size_t t = 0; t < p.tri.size(); ++t) {
+    const Mat46 D = gradient_by_unit_positions(p, t);
+    const Mat2 R = closest_rotation(deformation_gradient(p, t));
+    Eigen::Vector4d r;
+    r << R(0, 0), R(0, 1), R(1, 0), R(1, 1);
+    Eigen::Matrix<double, 6, 1> pinned = Eigen::Matrix<double, 6, 1>::Zero();
+    for (int a = 0; a < 6; ++a) {
+      const int v = p.tri[t][static_cast<size_t>(a / 2)];
+      if (v >= n) pinned[a] = p.x[static_cast<size_t>(v)][a % 2];
+    }
+    const Eigen::Matrix<double, 6, 6> Kt = p.weight[t] * D.transpose() * D;
+    const Eigen::Matrix<double, 6, 1> bt = p.weight[t] * D.transpose() * (r - D * pinned);
+    for (int a = 0; a < 6; ++a) {
+      const int va = p.tri[t][static_cast<size_t>(a / 2)];
+      if (va >= n) continue;
+      rhs[2 * va + a % 2] += bt[a];
+      for (int b = 0; b < 6; ++b) {
+        const int vb = p.tri[t][static_cast<size_t>(b / 2)];
+        if (vb < n) K(2 * va + a % 2, 2 * vb + b % 2) += Kt(a, b);
+      }
+    }
+  }
+  const Eigen::VectorXd expected = K.ldlt().solve(rhs);
+  ArapSettings s;
+  s.iterations = 1;
+  s.tolerance = 0;
+  ArapSolver(s).solve(p);
+  for (int i = 0; i < n; ++i) {
+    EXPECT_NEAR(p.x[static_cast<size_t>(i)].x(), expected[2 * i], 1e-12) << i;
+    EXPECT_NEAR(p.x[static_cast<size_t>(i)].y(), expected[2 * i + 1], 1e-12) << i;
+  }
+}
+
+TEST(MergeEngine, GradientRowsAreTheGradientOperatorsNonzeroBlocks) {
+  const LocalProblem p = sheared_grid();
+  for (size_t t = 0; t < p.tri.size(); ++t) {
+    const Mat23 G = gradient_rows(p.rest_inv[t]);
+    Mat46 expected = Mat46::Zero();
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j)
+        for (int k = 0; k < 3; ++k) expected(2 * i + j, 2 * k + i) = G(j, k);
+    EXPECT_NEAR((gradient_by_unit_positions(p, t) - expected).norm(), 0, 1e-12) << t;
+    EXPECT_EQ(gradient_operator(p.rest_inv[t]), expected) << t;
+  }
+}
+
 TEST(MergeEngine, ArapUntanglesAnInvertedStart) {
   LocalProblem p = centre_patch({2.5, 1.2});  // outside the ring: some triangles inverted
   EXPECT_GT(count_inverted(p), 0);
