@@ -250,6 +250,49 @@ TEST(ArapRepair, FlipFreeStepsKeepTheSingularValueFloor) {
     }
 }
 
+TEST(ArapRepair, ShapeKeptNeedsAPositiveDeterminantAndTheFloor) {
+  EXPECT_TRUE(shape_kept(Mat2::Identity(), 0.2));
+  const Mat2 squeezed = Eigen::Vector2d(1, 0.1).asDiagonal();  // singular values 1 and 0.1
+  EXPECT_FALSE(shape_kept(squeezed, 0.2));
+  EXPECT_TRUE(shape_kept(squeezed, 0.05));
+  const Mat2 mirror = Eigen::Vector2d(1, -1).asDiagonal();  // det -1: never kept, whatever the floor
+  EXPECT_FALSE(shape_kept(mirror, -5));
+  EXPECT_FALSE(shape_kept(Mat2::Zero(), -1));  // collapsed: det 0
+  const double c = std::cos(0.5), s = std::sin(0.5);
+  Mat2 turned;  // half-size rotation: both singular values 0.5
+  turned << 0.5 * c, -0.5 * s, 0.5 * s, 0.5 * c;
+  EXPECT_TRUE(shape_kept(turned, 0.49));
+  EXPECT_FALSE(shape_kept(turned, 0.51));
+}
+
+/// A pinned 2 x 2 square (0,0), (2,0), (2,2), (0,2) around one free centre vertex whose rest position
+/// is the middle (1,1), started at (3,1) outside the square: triangle (c, P1, P2) is inverted.
+LocalProblem square_with_centre_outside() {
+  LocalProblem p;
+  p.x = {Vec2(3, 1), Vec2(0, 0), Vec2(2, 0), Vec2(2, 2), Vec2(0, 2)};
+  p.num_free = 1;
+  for (int i = 0; i < 4; ++i) p.tri.push_back({0, 1 + i, 1 + (i + 1) % 4});
+  set_rest(p, {Vec2(1, 1), Vec2(0, 0), Vec2(2, 0), Vec2(2, 2), Vec2(0, 2)});
+  return p;
+}
+
+TEST(ArapRepair, UntangleStopsOnceEveryShapeKeepsTheFloor) {
+  LocalProblem full = square_with_centre_outside(), stopped = full, unreachable = full;
+  ASSERT_TRUE(untangle(full));
+  UntangleSettings s;
+  s.stop_floor = 0.2;
+  ASSERT_TRUE(untangle(stopped, s));
+  for (size_t t = 0; t < stopped.tri.size(); ++t) EXPECT_TRUE(shape_kept(deformation_gradient(stopped, t), 0.2)) << t;
+  // The full minimisation goes on towards the rest position; the stop is somewhere before it.
+  EXPECT_NEAR(full.x[0].x(), 1, 1e-3);
+  EXPECT_NEAR(full.x[0].y(), 1, 1e-3);
+  EXPECT_GT((stopped.x[0] - full.x[0]).norm(), 1e-6);
+  // A floor no triangle reaches never stops it: the same bits as without one.
+  s.stop_floor = 10;
+  ASSERT_TRUE(untangle(unreachable, s));
+  EXPECT_EQ(unreachable.x, full.x);
+}
+
 TEST(ArapRepair, UntangleRefusesAnInvertedTriangleWithoutFreeCorner) {
   LocalProblem p = notched_fan();
   p.x[0] = Vec2(2, 0.5);  // valid fan

@@ -220,7 +220,9 @@ SolveResult ArapSolver::solve(LocalProblem& p) {
   if (!r.ok && s_.untangle && p.repair_usable) {
     // Injectivity repair: untangle, then lower the ARAP energy again without turning anything over.
     r.repaired = true;
-    if (untangle(p, s_.untangling)) {
+    UntangleSettings us = s_.untangling;
+    if (s_.singular_value_floor > 0) us.stop_floor = s_.singular_value_floor;
+    if (untangle(p, us)) {
       r.iterations += run_steps(p, sc.sys, sc, s_.iterations, s_.tolerance, true, s_.singular_value_floor, ev);
       r.energy = ev.energy;
       r.ok = ev.inverted == 0;

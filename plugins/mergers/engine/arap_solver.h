@@ -8,12 +8,20 @@
 
 #include "local_problem.h"
 
+#include <optional>
+
 namespace texdefrag::merge {
 
 /// Limits of untangle().
 struct UntangleSettings {
   int outer_iterations = 20;  ///< eps updates (Garanzha et al. 2021's outer loop)
   int inner_iterations = 50;  ///< L-BFGS steps per eps
+  /// Stop as soon as an L-BFGS step reaches a point where every triangle is shape_kept() at this floor
+  /// (> 0), instead of minimising each eps to convergence. The merge's acceptance refuses a smaller
+  /// singular value below its floor, and the flip-free steps after untangling keep a triangle above
+  /// the floor once it is (ArapSettings::singular_value_floor), so polishing further only moves the
+  /// ARAP steps' start. Unset: the paper's minimisation.
+  std::optional<double> stop_floor;
 };
 
 struct ArapSettings {
@@ -24,7 +32,8 @@ struct ArapSettings {
   /// (max_injective_step), so the result is flip-free. SolveResult::repaired tells it happened.
   bool untangle = false;
   /// Those flip-free steps also keep every triangle whose smaller singular value is at least this at
-  /// least this (the merge's `min_singular_value`; 0 = no such limit).
+  /// least this (the merge's `min_singular_value`; 0 = no such limit). When > 0 the untangling also
+  /// stops at the first point above it (UntangleSettings::stop_floor).
   double singular_value_floor = 0;
   UntangleSettings untangling;
 };

@@ -104,6 +104,16 @@ double min_det(const LocalProblem& p) {
   return m;
 }
 
+/// Whether every triangle of the point sc's terms were evaluated at is shape_kept() at `floor`
+/// (determinants first: they are kept, and any det <= 0 answers without a singular value).
+bool every_shape_kept(const UntangleScratch& sc, double floor) {
+  for (const TriangleTerms& q : sc.terms)
+    if (!(q.det > 0)) return false;
+  for (const TriangleTerms& q : sc.terms)
+    if (!shape_kept(q.J, floor)) return false;
+  return true;
+}
+
 /// One L-BFGS memory pair: position change s, gradient change y, and s.y (the two-loop recursion reads
 /// it twice per pair and step; y.s and s.y are the same bits: the products commute, the sum's order is
 /// Eigen's either way).
@@ -130,11 +140,11 @@ Eigen::VectorXd lbfgs_direction(const std::deque<LbfgsPair>& mem, const Eigen::V
 
 /// L-BFGS (memory 7) with Armijo backtracking on untangle_energy at a fixed eps, from p's positions
 /// whose energy `e` the last untangle_energy() call gave (its terms are in sc); at most `iterations`
-/// steps. Leaves p at the best point found and returns its energy (sc's terms are then stale). The
-/// gradient is formed only at points the line search accepts (the same numbers as forming it at every
-/// trial).
+/// steps, fewer with a stop_floor (UntangleSettings). Leaves p at the best point found and returns its
+/// energy (sc's terms are then stale). The gradient is formed only at points the line search accepts
+/// (the same numbers as forming it at every trial).
 double minimise_lbfgs(LocalProblem& p, const std::vector<Mat23>& G, double eps, int iterations, double e,
-                      UntangleScratch& sc) {
+                      std::optional<double> stop_floor, UntangleScratch& sc) {
   constexpr int kMemory = 7;
   Eigen::VectorXd x = free_positions(p), g, gn;
   untangle_gradient(p, G, sc, g);
@@ -165,6 +175,8 @@ double minimise_lbfgs(LocalProblem& p, const std::vector<Mat23>& G, double eps, 
       set_free_positions(p, x);
       break;
     }
+    // note: p and sc's terms are at the accepted point here.
+    if (stop_floor && every_shape_kept(sc, *stop_floor)) return en;
     untangle_gradient(p, G, sc, gn);
     Eigen::VectorXd s = step * d, y = gn - g;
     x += s;
@@ -202,7 +214,7 @@ bool untangle(LocalProblem& p, const UntangleSettings& s) {
   UntangleScratch sc;
   for (int outer = 0; outer < s.outer_iterations; ++outer) {
     const double e_prev = untangle_energy(p, eps, sc);
-    const double e = minimise_lbfgs(p, G, eps, s.inner_iterations, e_prev, sc);
+    const double e = minimise_lbfgs(p, G, eps, s.inner_iterations, e_prev, s.stop_floor, sc);
     dmin = min_det(p);
     if (dmin > 0) return true;
     // Garanzha et al. 2021, section 4: shrink eps with the progress made, keeping it above the

@@ -93,6 +93,12 @@ inline Eigen::Vector2d signed_singular_values_2x2(const Mat2& F) {
   return {Q + R, Q - R};
 }
 
+/// Whether a triangle with deformation gradient F is untangled and not compressed below `floor`:
+/// det F > 0 and its smaller signed singular value >= floor (any floor; at floor <= 0 just det F > 0).
+inline bool shape_kept(const Mat2& F, double floor) {
+  return F.determinant() > 0 && signed_singular_values_2x2(F)[1] >= floor;
+}
+
 /// ARAP error (s1-1)^2 + (s2-1)^2 with signed singular values (core/distortion.h's measure).
 double arap_error_2x2(const Mat2& F);
 
