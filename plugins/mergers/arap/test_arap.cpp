@@ -293,6 +293,56 @@ TEST(ArapRepair, UntangleStopsOnceEveryShapeKeepsTheFloor) {
   EXPECT_EQ(unreachable.x, full.x);
 }
 
+/// A free centre vertex inside a pinned 24-gon of radius 2 listed clockwise, against the rest shape of
+/// the counter-clockwise fan: the fan's signed areas add up to the polygon's, negative wherever the
+/// centre goes, so at least one triangle stays inverted (no untangling exists) and, from the centre,
+/// all 24 are.
+LocalProblem clockwise_ring() {
+  LocalProblem p;
+  constexpr int kSides = 24;
+  std::vector<Vec2> rest{Vec2(0, 0)};
+  p.x = {Vec2(0, 0)};
+  for (int i = 0; i < kSides; ++i) {
+    const double a = 2 * 3.141592653589793 * i / kSides;
+    rest.emplace_back(2 * std::cos(a), 2 * std::sin(a));
+    p.x.emplace_back(2 * std::cos(a), -2 * std::sin(a));  // mirrored: clockwise
+  }
+  p.num_free = 1;
+  for (int i = 0; i < kSides; ++i) p.tri.push_back({0, 1 + i, 1 + (i + 1) % kSides});
+  set_rest(p, rest);
+  return p;
+}
+
+TEST(ArapRepair, UntangleGivesUpWhenTheInvertedCountStalls) {
+  LocalProblem stalled = clockwise_ring(), patient = stalled;
+  ASSERT_EQ(count_inverted(stalled), 24);
+  const std::vector<Vec2> start = stalled.x;
+  UntangleReport quick, full;
+  EXPECT_FALSE(untangle(stalled, UntangleSettings{}, &quick));
+  UntangleSettings never;
+  never.stall.reset();
+  EXPECT_FALSE(untangle(patient, never, &full));
+  EXPECT_EQ(full.rounds, never.outer_iterations);
+  EXPECT_GE(quick.rounds, UntangleStall{}.rounds + 1);  // needs rounds + 1 counts to compare
+  EXPECT_LT(quick.rounds, full.rounds);
+  EXPECT_LT(quick.lbfgs_steps, full.lbfgs_steps);
+  EXPECT_EQ(stalled.x, start);  // given up: positions as given, as after all 20 rounds
+  EXPECT_EQ(patient.x, start);
+}
+
+TEST(ArapRepair, UntangleReportsItsRoundsAndSteps) {
+  LocalProblem p = notched_fan();
+  UntangleReport r;
+  ASSERT_TRUE(untangle(p, UntangleSettings{}, &r));
+  EXPECT_GE(r.rounds, 1);
+  EXPECT_GE(r.lbfgs_steps, 1);
+  LocalProblem fine = notched_fan();
+  fine.x[0] = Vec2(2, 0.5);  // nothing inverted: nothing to do
+  ASSERT_TRUE(untangle(fine, UntangleSettings{}, &r));
+  EXPECT_EQ(r.rounds, 0);
+  EXPECT_EQ(r.lbfgs_steps, 0);
+}
+
 TEST(ArapRepair, UntangleRefusesAnInvertedTriangleWithoutFreeCorner) {
   LocalProblem p = notched_fan();
   p.x[0] = Vec2(2, 0.5);  // valid fan

@@ -144,7 +144,7 @@ Eigen::VectorXd lbfgs_direction(const std::deque<LbfgsPair>& mem, const Eigen::V
 /// energy (sc's terms are then stale). The gradient is formed only at points the line search accepts
 /// (the same numbers as forming it at every trial).
 double minimise_lbfgs(LocalProblem& p, const std::vector<Mat23>& G, double eps, int iterations, double e,
-                      std::optional<double> stop_floor, UntangleScratch& sc) {
+                      std::optional<double> stop_floor, UntangleScratch& sc, int& steps) {
   constexpr int kMemory = 7;
   Eigen::VectorXd x = free_positions(p), g, gn;
   untangle_gradient(p, G, sc, g);
@@ -175,6 +175,7 @@ double minimise_lbfgs(LocalProblem& p, const std::vector<Mat23>& G, double eps, 
       set_free_positions(p, x);
       break;
     }
+    ++steps;
     // note: p and sc's terms are at the accepted point here.
     if (stop_floor && every_shape_kept(sc, *stop_floor)) return en;
     untangle_gradient(p, G, sc, gn);
@@ -195,7 +196,18 @@ double minimise_lbfgs(LocalProblem& p, const std::vector<Mat23>& G, double eps, 
 
 }  // namespace
 
-bool untangle(LocalProblem& p, const UntangleSettings& s) {
+/// Whether the rounds' inverted counts so far (oldest first) show a stall by `st`.
+bool stalled(const std::vector<int>& inverted, const UntangleStall& st) {
+  const size_t n = inverted.size(), lag = static_cast<size_t>(st.rounds);
+  if (n <= lag) return false;
+  const int now = inverted[n - 1], then = inverted[n - 1 - lag];
+  return now >= st.min_inverted && now > st.share * then;
+}
+
+bool untangle(LocalProblem& p, const UntangleSettings& s, UntangleReport* report) {
+  UntangleReport local;
+  UntangleReport& rep = report ? *report : local;
+  rep = UntangleReport();
   double dmin = min_det(p);
   if (dmin > 0) return true;
 
@@ -212,11 +224,15 @@ bool untangle(LocalProblem& p, const UntangleSettings& s) {
   double eps = std::sqrt(1e-12 + 0.04 * dmin * dmin);
   const Eigen::VectorXd start = free_positions(p);
   UntangleScratch sc;
+  std::vector<int> inverted;  // per round
   for (int outer = 0; outer < s.outer_iterations; ++outer) {
     const double e_prev = untangle_energy(p, eps, sc);
-    const double e = minimise_lbfgs(p, G, eps, s.inner_iterations, e_prev, s.stop_floor, sc);
+    ++rep.rounds;
+    const double e = minimise_lbfgs(p, G, eps, s.inner_iterations, e_prev, s.stop_floor, sc, rep.lbfgs_steps);
     dmin = min_det(p);
     if (dmin > 0) return true;
+    inverted.push_back(count_inverted(p));
+    if (s.stall && stalled(inverted, *s.stall)) break;
     // Garanzha et al. 2021, section 4: shrink eps with the progress made, keeping it above the
     // most inverted triangle's determinant.
     const double sigma = std::max(1 - e / e_prev, 0.1);
