@@ -98,10 +98,20 @@ void untangle_gradient(const LocalProblem& p, const std::vector<Mat23>& G, const
   grad /= wsum;
 }
 
-double min_det(const LocalProblem& p) {
-  double m = std::numeric_limits<double>::infinity();
-  for (size_t t = 0; t < p.tri.size(); ++t) m = std::min(m, deformation_gradient(p, t).determinant());
-  return m;
+/// The smallest det F of p's triangles and how many have det F <= 0 (count_inverted()), in one pass.
+struct Tangle {
+  double min_det = std::numeric_limits<double>::infinity();
+  int inverted = 0;
+};
+
+Tangle tangle(const LocalProblem& p) {
+  Tangle r;
+  for (size_t t = 0; t < p.tri.size(); ++t) {
+    const double d = deformation_gradient(p, t).determinant();
+    r.min_det = std::min(r.min_det, d);
+    if (d <= 0) ++r.inverted;
+  }
+  return r;
 }
 
 /// Whether every triangle of the point sc's terms were evaluated at is shape_kept() at `floor`
@@ -208,7 +218,7 @@ bool untangle(LocalProblem& p, const UntangleSettings& s, UntangleReport* report
   UntangleReport local;
   UntangleReport& rep = report ? *report : local;
   rep = UntangleReport();
-  double dmin = min_det(p);
+  double dmin = tangle(p).min_det;
   if (dmin > 0) return true;
 
   if (p.num_free == 0) return false;
@@ -229,9 +239,10 @@ bool untangle(LocalProblem& p, const UntangleSettings& s, UntangleReport* report
     const double e_prev = untangle_energy(p, eps, sc);
     ++rep.rounds;
     const double e = minimise_lbfgs(p, G, eps, s.inner_iterations, e_prev, s.stop_floor, sc, rep.lbfgs_steps);
-    dmin = min_det(p);
+    const Tangle now = tangle(p);
+    dmin = now.min_det;
     if (dmin > 0) return true;
-    inverted.push_back(count_inverted(p));
+    inverted.push_back(now.inverted);
     if (s.stall && stalled(inverted, *s.stall)) break;
     // Garanzha et al. 2021, section 4: shrink eps with the progress made, keeping it above the
     // most inverted triangle's determinant.
