@@ -61,6 +61,13 @@ std::vector<OptionSpec> order_and_bound_specs(double local_bound_default) {
                  "Reject a merge whose solve needed the injectivity repair when the global ARAP distortion after it "
                  "exceeds this share of global_bound")
           .range(0, 1),
+      opt_bool("seam_price", false,
+               "In the first pass, refuse (price) a merge whose share of the distortion budget exceeds max_seam_price "
+               "times its share of the input's 3D seam length; the second pass has no such limit"),
+      opt_double("max_seam_price", 5,
+                 "With seam_price: the largest share of the distortion budget a first-pass merge may spend per share "
+                 "of the input's 3D seam length it welds")
+          .range(1e-6, 1e6),
       opt_int("max_merges", 100000000, "Stop after this many accepted merges").at_least(0),
       opt_int("max_attempts", 3,
               "Attempts per chart pair; a rejected pair is retried only after one of its charts changed")
@@ -172,6 +179,8 @@ MergeOptions merge_options_from(const Options& o) {
   m.min_singular_value = o.get_double("min_singular_value");
   m.repaired_local_bound = o.get_double("repaired_local_bound");
   m.repaired_global_share = o.get_double("repaired_global_share");
+  m.seam_price = o.get_bool("seam_price");
+  m.max_seam_price = o.get_double("max_seam_price");
   m.max_merges = o.get_int("max_merges");
   m.max_attempts = static_cast<int>(o.get_int("max_attempts"));
   m.max_free_vertices = static_cast<int>(o.get_int("max_free_vertices"));

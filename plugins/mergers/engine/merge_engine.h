@@ -56,6 +56,13 @@ struct MergeOptions {
   /// global_bound (docs/mergers.md step 7).
   double repaired_local_bound = 0.025;
   double repaired_global_share = 0.5;
+  /// In the first pass, a move whose share of the distortion budget (its change of the error sum over
+  /// global_bound x the weight of every face) exceeds max_seam_price x its share of the input's seam
+  /// (its 3D seam length over the input's) is refused as `price`; the second pass has no such limit.
+  /// Where the budget binds, it goes to the merges that weld the most seam for it (docs/mergers.md,
+  /// "Seam price").
+  bool seam_price = false;
+  double max_seam_price = 5;  ///< > 0: see seam_price
   long long max_merges = 100000000;  ///< stop after this many accepted merges (>= 0)
   int max_attempts = 3;         ///< attempts per chart pair (a rejected pair is retried when a chart changes)
   int max_free_vertices = 2000; ///< cap on the free region (nearest wedges first)

@@ -546,6 +546,70 @@ TEST(MergeEngineSteps, TheUnconstrainedTrialIsKeptOnlyWhenItLeavesLessSeam) {
   }
 }
 
+TEST(MergeEngineSteps, TheSeamPriceRefusesAFirstPassMergeThatSpendsTheBudgetOutOfProportion) {
+  // By hand: the two squares in one region, the right one 1.5x denser, so welding them costs ARAP
+  // error. Their shared edge (3D length 1) is the input's whole seam, so the merge's share of the seam
+  // is 1 and its price is its share of the budget: D / global_bound, D the distortion it leaves (the
+  // input's is 0). A cap just under that price refuses it (`price`, the edge left cut under that
+  // reason); just over, it merges; with the second pass (no cap there) it merges after the refusal.
+  const std::vector<int> one_region{0, 0, 0, 0};
+  ArapSolver solver;
+  MergeOptions o;
+  o.global_bound = 1;  // the budget itself never refuses the weld
+  double price = 0;
+  {
+    test::Run run(two_squares(false, 1.5));
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, one_region, o, solver, {});
+    ASSERT_EQ(r.charts_out, 1u);
+    price = r.distortion_out / o.global_bound;
+  }
+  ASSERT_GT(price, 1e-4);
+  o.seam_price = true;
+  for (const bool merged : {false, true}) {
+    test::Run run(two_squares(false, 1.5));
+    const Atlas input = run.ctx.atlas;
+    o.max_seam_price = price * (merged ? 1.01 : 0.99);
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, one_region, o, solver, {});
+    EXPECT_EQ(r.charts_out, merged ? 1u : 2u) << o.max_seam_price;
+    EXPECT_EQ(r.rejected.count("price"), merged ? 0u : 1u);
+    if (!merged) {
+      EXPECT_EQ(r.rejected.at("price"), 1u);
+      EXPECT_NEAR(r.seam_left.at("price").length_3d, 1.0, 1e-12);
+      EXPECT_EQ(run.ctx.atlas.wedge_uv, input.wedge_uv);
+      EXPECT_EQ(run.ctx.atlas.face_wedge, input.face_wedge);
+    }
+    EXPECT_EQ(r.flipped_out, 0u);
+  }
+  {
+    test::Run run(two_squares(false, 1.5));
+    o.max_seam_price = price * 0.99;
+    o.second_pass = SecondPass::AcrossRegions;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, one_region, o, solver, {});
+    EXPECT_EQ(r.charts_out, 1u);
+    EXPECT_EQ(r.rejected.at("price"), 1u);
+    EXPECT_EQ(r.accepted_second_pass, 1u);
+    EXPECT_NEAR(r.distortion_out, price * o.global_bound, 1e-9);
+    test::expect_valid_atlas(run);
+  }
+  // Declared once: off by default, the cap 5, never 0 or below (no cap that refuses everything).
+  const std::vector<OptionSpec> specs = merge_option_specs();
+  json values = json::object();
+  for (const OptionSpec& sp : specs) {
+    values[sp.key] = sp.default_value;
+    if (sp.key == "max_seam_price") {
+      EXPECT_EQ(check_option_value(sp, 0), "= 0 outside [1e-06, 1e+06]");
+    }
+  }
+  const MergeOptions d = merge_options_from(Options(values));
+  EXPECT_FALSE(d.seam_price);
+  EXPECT_EQ(d.max_seam_price, 5);
+  values["seam_price"] = true;
+  values["max_seam_price"] = 3.5;
+  const MergeOptions m = merge_options_from(Options(values));
+  EXPECT_TRUE(m.seam_price);
+  EXPECT_EQ(m.max_seam_price, 3.5);
+}
+
 /// Runs run_merges on the two squares of `run` (two regions, the unconstrained trial on in `o`) and
 /// checks that the trial ran and, as `merged` says, was kept with one chart and no seam left, or not
 /// kept with two charts and the shared edge (3D length 1) left cut.
