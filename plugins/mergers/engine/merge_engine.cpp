@@ -127,6 +127,9 @@ std::vector<OptionSpec> trial_and_weld_specs() {
                  "min_singular_value of the unconstrained trial (its collapsed-triangle refusal); negative: the same "
                  "as min_singular_value")
           .range(-1, 1),
+      opt_bool("unconstrained_trial_seam_price", false,
+               "With seam_price: the unconstrained trial's first pass is priced too (false: the trial merges without "
+               "the price)"),
       opt_int("unconstrained_trial_max_attempts", 0,
               "max_attempts of the unconstrained trial; 0: the same as max_attempts")
           .range(0, 1000),
@@ -190,6 +193,7 @@ MergeOptions merge_options_from(const Options& o) {
   m.unconstrained_trial_share = o.get_double("unconstrained_trial_share");
   m.unconstrained_trial_min_singular_value = o.get_double("unconstrained_trial_min_singular_value");
   m.unconstrained_trial_max_attempts = static_cast<int>(o.get_int("unconstrained_trial_max_attempts"));
+  m.unconstrained_trial_seam_price = o.get_bool("unconstrained_trial_seam_price");
   m.unconstrained_trial_repaired_global_share = o.get_double("unconstrained_trial_repaired_global_share");
   m.unconstrained_trial_second_pass_local_bound = o.get_double("unconstrained_trial_second_pass_local_bound");
   m.unconstrained_trial_beside = o.get_bool("unconstrained_trial_beside");
@@ -285,6 +289,7 @@ void trial_options(MergeOptions& opt) {
   if (opt.unconstrained_trial_min_singular_value >= 0)
     opt.min_singular_value = opt.unconstrained_trial_min_singular_value;
   if (opt.unconstrained_trial_max_attempts > 0) opt.max_attempts = opt.unconstrained_trial_max_attempts;
+  opt.seam_price = opt.seam_price && opt.unconstrained_trial_seam_price;
   if (opt.unconstrained_trial_repaired_global_share >= 0)
     opt.repaired_global_share = opt.unconstrained_trial_repaired_global_share;
   if (opt.unconstrained_trial_second_pass_local_bound >= 0)

@@ -90,6 +90,9 @@ struct MergeOptions {
   /// unspent, and the trial is kept only when it leaves less seam (docs/mergers.md, "The trial's
   /// own limits").
   int unconstrained_trial_max_attempts = 0;
+  /// The trial prices its first pass (seam_price) only with this: it runs where the regions left the
+  /// budget unspent, where a price only puts merges off (docs/mergers.md, "Seam price").
+  bool unconstrained_trial_seam_price = false;
   double unconstrained_trial_repaired_global_share = -1;
   double unconstrained_trial_second_pass_local_bound = -1;
   /// With two threads or more the trial starts on a thread of its own beside the run with regions and

@@ -591,6 +591,18 @@ TEST(MergeEngineSteps, TheSeamPriceRefusesAFirstPassMergeThatSpendsTheBudgetOutO
     EXPECT_NEAR(r.distortion_out, price * o.global_bound, 1e-9);
     test::expect_valid_atlas(run);
   }
+  // The unconstrained trial (two regions, no second pass: only the trial can weld the pair) merges
+  // without the price unless unconstrained_trial_seam_price says otherwise.
+  o.second_pass = SecondPass::None;
+  o.unconstrained_trial = true;
+  for (const bool priced : {false, true}) {
+    test::Run run(two_squares(false, 1.5));
+    o.unconstrained_trial_seam_price = priced;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {0, 0, 1, 1}, o, solver, {});
+    EXPECT_TRUE(r.unconstrained_trial_run);
+    EXPECT_EQ(r.unconstrained_trial_kept, !priced);
+    EXPECT_EQ(r.charts_out, priced ? 2u : 1u);
+  }
   // Declared once: off by default, the cap 5, never 0 or below (no cap that refuses everything).
   const std::vector<OptionSpec> specs = merge_option_specs();
   json values = json::object();
@@ -602,6 +614,7 @@ TEST(MergeEngineSteps, TheSeamPriceRefusesAFirstPassMergeThatSpendsTheBudgetOutO
   }
   const MergeOptions d = merge_options_from(Options(values));
   EXPECT_FALSE(d.seam_price);
+  EXPECT_FALSE(d.unconstrained_trial_seam_price);
   EXPECT_EQ(d.max_seam_price, 5);
   values["seam_price"] = true;
   values["max_seam_price"] = 3.5;
