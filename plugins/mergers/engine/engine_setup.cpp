@@ -783,7 +783,7 @@ MergeReport Engine::run(const Progress& progress) {
 }
 
 void Engine::first_pass(const Progress& progress, double span) {
-  if (opt_.seam_price) {
+  if (opt_.seam_price == SeamPrice::On) {
     std::vector<int> seam;
     for_each_textured_edge([&](size_t ei, const Edge&, int, int, int ca, int cb) {
       if (ca != cb) seam.push_back(static_cast<int>(ei));

@@ -35,6 +35,13 @@ enum class Priority {
   MMethod,    ///< Maggiordomo et al.: smallest err * min(B/L) * min(area) * penalty first, with refusals
 };
 
+/// The seam price of the first pass (MergeOptions::seam_price; docs/mergers.md, "Seam price").
+enum class SeamPrice {
+  Off,   ///< no price
+  On,    ///< first-pass merges are priced
+  Both,  ///< the whole merging runs twice, without and with the price; the atlas leaving less seam is kept
+};
+
 /// What happens after the region-constrained queue is empty.
 enum class SecondPass {
   None,           ///< stop (the paper's behaviour)
@@ -61,7 +68,7 @@ struct MergeOptions {
   /// (its 3D seam length over the input's) is refused as `price`; the second pass has no such limit.
   /// Where the budget binds, it goes to the merges that weld the most seam for it (docs/mergers.md,
   /// "Seam price").
-  bool seam_price = false;
+  SeamPrice seam_price = SeamPrice::Off;
   double max_seam_price = 5;  ///< > 0: see seam_price
   long long max_merges = 100000000;  ///< stop after this many accepted merges (>= 0)
   int max_attempts = 3;         ///< attempts per chart pair (a rejected pair is retried when a chart changes)
@@ -160,6 +167,9 @@ struct MergeReport {
   /// 3D seam length the run with regions left cut (seam_left_length_3d of the kept run is the other).
   bool unconstrained_trial_run = false, unconstrained_trial_kept = false;
   double regions_seam_left_length_3d = 0;
+  /// seam_price = both: the priced run's atlas was kept; the 3D seam the unpriced run left cut.
+  bool seam_price_kept = false;
+  double unpriced_seam_left_length_3d = 0;
   /// The trial on a thread beside the run with regions (two threads or more): "ended" (it ran to its
   /// end), "dropped" (stopped when that run's distortion reached the trial's share), or "off".
   std::string unconstrained_trial_beside = "off";

@@ -564,7 +564,7 @@ TEST(MergeEngineSteps, TheSeamPriceRefusesAFirstPassMergeThatSpendsTheBudgetOutO
     price = r.distortion_out / o.global_bound;
   }
   ASSERT_GT(price, 1e-4);
-  o.seam_price = true;
+  o.seam_price = SeamPrice::On;
   for (const bool merged : {false, true}) {
     test::Run run(two_squares(false, 1.5));
     const Atlas input = run.ctx.atlas;
@@ -591,6 +591,20 @@ TEST(MergeEngineSteps, TheSeamPriceRefusesAFirstPassMergeThatSpendsTheBudgetOutO
     EXPECT_NEAR(r.distortion_out, price * o.global_bound, 1e-9);
     test::expect_valid_atlas(run);
   }
+  // Both ways: the run without the price merges (seam left 0), the priced one leaves the edge cut
+  // (1): the unpriced atlas is kept.
+  {
+    test::Run run(two_squares(false, 1.5));
+    o.second_pass = SecondPass::None;
+    o.seam_price = SeamPrice::Both;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, one_region, o, solver, {});
+    EXPECT_EQ(r.charts_out, 1u);
+    EXPECT_FALSE(r.seam_price_kept);
+    EXPECT_EQ(r.unpriced_seam_left_length_3d, 0.0);
+    EXPECT_EQ(r.rejected.count("price"), 0u);
+    test::expect_valid_atlas(run);
+    o.seam_price = SeamPrice::On;
+  }
   // The unconstrained trial (two regions, no second pass: only the trial can weld the pair) merges
   // without the price unless unconstrained_trial_seam_price says otherwise.
   o.second_pass = SecondPass::None;
@@ -613,13 +627,13 @@ TEST(MergeEngineSteps, TheSeamPriceRefusesAFirstPassMergeThatSpendsTheBudgetOutO
     }
   }
   const MergeOptions d = merge_options_from(Options(values));
-  EXPECT_FALSE(d.seam_price);
+  EXPECT_EQ(d.seam_price, SeamPrice::Off);
   EXPECT_FALSE(d.unconstrained_trial_seam_price);
   EXPECT_EQ(d.max_seam_price, 5);
-  values["seam_price"] = true;
+  values["seam_price"] = "both";
   values["max_seam_price"] = 3.5;
   const MergeOptions m = merge_options_from(Options(values));
-  EXPECT_TRUE(m.seam_price);
+  EXPECT_EQ(m.seam_price, SeamPrice::Both);
   EXPECT_EQ(m.max_seam_price, 3.5);
 }
 
