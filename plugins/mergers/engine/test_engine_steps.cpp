@@ -546,6 +546,18 @@ TEST(MergeEngineSteps, TheUnconstrainedTrialIsKeptOnlyWhenItLeavesLessSeam) {
   }
 }
 
+/// The distortion left by welding the two squares, the right one 1.5x denser, in one region with a
+/// budget that never refuses the weld (global_bound 1): the price of that merge times the bound.
+double denser_square_weld_distortion() {
+  test::Run run(two_squares(false, 1.5));
+  ArapSolver solver;
+  MergeOptions o;
+  o.global_bound = 1;
+  const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {0, 0, 0, 0}, o, solver, {});
+  EXPECT_EQ(r.charts_out, 1u);
+  return r.distortion_out;
+}
+
 TEST(MergeEngineSteps, TheSeamPriceRefusesAFirstPassMergeThatSpendsTheBudgetOutOfProportion) {
   // By hand: the two squares in one region, the right one 1.5x denser, so welding them costs ARAP
   // error. Their shared edge (3D length 1) is the input's whole seam, so the merge's share of the seam
@@ -556,13 +568,7 @@ TEST(MergeEngineSteps, TheSeamPriceRefusesAFirstPassMergeThatSpendsTheBudgetOutO
   ArapSolver solver;
   MergeOptions o;
   o.global_bound = 1;  // the budget itself never refuses the weld
-  double price = 0;
-  {
-    test::Run run(two_squares(false, 1.5));
-    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, one_region, o, solver, {});
-    ASSERT_EQ(r.charts_out, 1u);
-    price = r.distortion_out / o.global_bound;
-  }
+  const double price = denser_square_weld_distortion() / o.global_bound;
   ASSERT_GT(price, 1e-4);
   o.seam_price = SeamPrice::On;
   for (const bool merged : {false, true}) {
@@ -591,6 +597,16 @@ TEST(MergeEngineSteps, TheSeamPriceRefusesAFirstPassMergeThatSpendsTheBudgetOutO
     EXPECT_NEAR(r.distortion_out, price * o.global_bound, 1e-9);
     test::expect_valid_atlas(run);
   }
+}
+
+TEST(MergeEngineSteps, SeamPriceBothKeepsTheAtlasWithLessSeamAndTheTrialIsPricedOnlyWhenAsked) {
+  // The two squares of the test above, the cap just under the weld's price, no second pass.
+  const std::vector<int> one_region{0, 0, 0, 0};
+  ArapSolver solver;
+  MergeOptions o;
+  o.global_bound = 1;
+  const double price = denser_square_weld_distortion() / o.global_bound;
+  o.max_seam_price = price * 0.99;
   // Both ways: the run without the price merges (seam left 0), the priced one leaves the edge cut
   // (1): the unpriced atlas is kept.
   {
