@@ -63,10 +63,11 @@ struct MergeOptions {
   /// global_bound (docs/mergers.md step 7).
   double repaired_local_bound = 0.025;
   double repaired_global_share = 0.5;
-  /// In the first pass, a move whose share of the distortion budget (its change of the error sum over
-  /// global_bound x the weight of every face) exceeds max_seam_price x its share of the input's seam
-  /// (its 3D seam length over the input's) is refused as `price`; the second pass has no such limit.
-  /// Where the budget binds, it goes to the merges that weld the most seam for it (docs/mergers.md,
+  /// On: in the first pass, a move whose share of the distortion budget (its change of the error sum
+  /// over global_bound x the weight of every face) exceeds max_seam_price x its share of the input's
+  /// seam (its 3D seam length over the input's) is refused as `price`; the second pass has no such
+  /// limit. Where the budget binds, it goes to the merges that weld the most seam for it. Both: the
+  /// whole merging without and with the price, the atlas leaving less 3D seam kept (docs/mergers.md,
   /// "Seam price").
   SeamPrice seam_price = SeamPrice::Off;
   double max_seam_price = 5;  ///< > 0: see seam_price
@@ -97,8 +98,9 @@ struct MergeOptions {
   /// unspent, and the trial is kept only when it leaves less seam (docs/mergers.md, "The trial's
   /// own limits").
   int unconstrained_trial_max_attempts = 0;
-  /// The trial prices its first pass (seam_price) only with this: it runs where the regions left the
-  /// budget unspent, where a price only puts merges off (docs/mergers.md, "Seam price").
+  /// The unconstrained trial of a priced run (seam_price on, or the priced half of both) prices its
+  /// first pass too only with this (docs/mergers.md, "Seam price": better on the urban tiles, worse on
+  /// the Cedar Creek rooms, hence both).
   bool unconstrained_trial_seam_price = false;
   double unconstrained_trial_repaired_global_share = -1;
   double unconstrained_trial_second_pass_local_bound = -1;
