@@ -65,6 +65,10 @@ std::vector<OptionSpec> order_and_bound_specs(double local_bound_default) {
                "'on': in the first pass, refuse (price) a merge whose share of the distortion budget exceeds "
                "max_seam_price times its share of the input's 3D seam length (the second pass has no such limit); "
                "'both': merge without and with the price and keep the atlas that leaves less 3D seam; 'off': no price"),
+      opt_int("seam_price_both_max_faces", 300000,
+              "Models with more faces than this merge once, without the price, when seam_price is 'both' (the two "
+              "runs double the merger's time and hold one more atlas)")
+          .at_least(0),
       opt_double("max_seam_price", 5,
                  "With seam_price: the largest share of the distortion budget a first-pass merge may spend per share "
                  "of the input's 3D seam length it welds")
@@ -185,6 +189,7 @@ MergeOptions merge_options_from(const Options& o) {
   m.repaired_global_share = o.get_double("repaired_global_share");
   m.seam_price = o.get_enum<SeamPrice>("seam_price", {{"off", SeamPrice::Off}, {"on", SeamPrice::On}, {"both", SeamPrice::Both}});
   m.max_seam_price = o.get_double("max_seam_price");
+  m.seam_price_both_max_faces = static_cast<size_t>(o.get_int("seam_price_both_max_faces"));
   m.max_merges = o.get_int("max_merges");
   m.max_attempts = static_cast<int>(o.get_int("max_attempts"));
   m.max_free_vertices = static_cast<int>(o.get_int("max_free_vertices"));
@@ -424,6 +429,8 @@ MergeReport run_priced_or_not(const TexturedMesh& mesh, const Topology& topo, At
   // where it does not it only puts merges off, and which of the two holds is known only after merging.
   MergeOptions o = opt;
   o.seam_price = SeamPrice::Off;
+  if (mesh.num_faces() > opt.seam_price_both_max_faces)
+    return run_merges(mesh, topo, atlas, face_region, o, solver, progress);
   Atlas priced = atlas;
   auto half = [&progress](double base) {
     return progress ? Progress([&progress, base](double f) { progress(base + 0.5 * f); }) : Progress();

@@ -646,11 +646,14 @@ TEST(MergeEngineSteps, SeamPriceBothKeepsTheAtlasWithLessSeamAndTheTrialIsPriced
   EXPECT_EQ(d.seam_price, SeamPrice::Off);
   EXPECT_FALSE(d.unconstrained_trial_seam_price);
   EXPECT_EQ(d.max_seam_price, 5);
+  EXPECT_EQ(d.seam_price_both_max_faces, 300000u);
   values["seam_price"] = "both";
   values["max_seam_price"] = 3.5;
+  values["seam_price_both_max_faces"] = 7;
   const MergeOptions m = merge_options_from(Options(values));
   EXPECT_EQ(m.seam_price, SeamPrice::Both);
   EXPECT_EQ(m.max_seam_price, 3.5);
+  EXPECT_EQ(m.seam_price_both_max_faces, 7u);
 }
 
 /// Runs run_merges on the two squares of `run` (two regions, the unconstrained trial on in `o`) and
