@@ -323,6 +323,12 @@ class Engine {
     return L.repair_off ||
            (L.global_check && weight_sum_ > 0 && L.err_sum / weight_sum_ > opt_.repaired_global_share * opt_.global_bound);
   }
+  /// 3D length of the topology edges `edges`.
+  double edges_length_3d(const std::vector<int>& edges) const;
+  /// seam_price in the first pass: "price" when the move's change of the error sum, `delta`, is a
+  /// larger share of the budget (global_bound x the weight of every face) than max_seam_price x the
+  /// share of the input's 3D seam its seam edges make up; else nullptr (also for a closed cut).
+  const char* price_refusal(const Move& mv, double delta) const;
   /// "global_distortion" when over_budget, or when the move's solve needed the injectivity repair
   /// and, under the global check, new_sum exceeds repaired_global_share of the budget; else nullptr.
   const char* budget_refusal(const Lane& L, double new_sum, bool repaired) const {
@@ -644,6 +650,8 @@ class Engine {
   const std::vector<int>& region_;
   MergeOptions opt_;   ///< priority and local_bound switch to the second pass's values when it starts
   bool across_ = false;  ///< second pass: regions are ignored
+  bool price_on_ = false;     ///< first pass with seam_price: moves are refused as `price` (price_refusal)
+  double seam_in_3d_ = 0;     ///< seam_price: 3D length of the seam between the input's charts
   bool budget_shares_ = false;  ///< first-pass lanes check their share of the budget (use_budget_shares)
   bool overspent_ = false;      ///< see overspent()
   double watch_at_ = 0;                  ///< watch_distortion's level

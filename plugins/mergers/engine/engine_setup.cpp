@@ -359,6 +359,16 @@ void Engine::for_each_textured_edge(Fn&& fn) const {
   }
 }
 
+double Engine::edges_length_3d(const std::vector<int>& edges) const {
+  double len = 0;
+  for (int ei : edges) {
+    const Edge& e = topo_.edges[static_cast<size_t>(ei)];
+    len += (mesh_.positions[static_cast<size_t>(topo_.position_of_vertex[static_cast<size_t>(e.a)])] -
+            mesh_.positions[static_cast<size_t>(topo_.position_of_vertex[static_cast<size_t>(e.b)])]).norm();
+  }
+  return len;
+}
+
 void Engine::rebuild_adjacency() {
   for (ChartInfo& ch : charts_) ch.adj.clear();
   // Seam edges: manifold, two textured non-degenerate faces in different charts.
@@ -773,6 +783,14 @@ MergeReport Engine::run(const Progress& progress) {
 }
 
 void Engine::first_pass(const Progress& progress, double span) {
+  if (opt_.seam_price == SeamPrice::On) {
+    std::vector<int> seam;
+    for_each_textured_edge([&](size_t ei, const Edge&, int, int, int ca, int cb) {
+      if (ca != cb) seam.push_back(static_cast<int>(ei));
+    });
+    seam_in_3d_ = edges_length_3d(seam);
+    price_on_ = true;
+  }
   std::vector<Lane> lanes = make_region_lanes();
   rep_.first_pass_lanes = lanes.size();
   // Without budget shares the lanes skip the global check, and the pass stands when the global
@@ -787,6 +805,7 @@ void Engine::first_pass(const Progress& progress, double span) {
     solo_lane_ = &lanes[0];
   run_lanes(lanes, progress, span);
   solo_lane_ = nullptr;
+  price_on_ = false;
   join_lanes(lanes);
   if (optimistic && global_distortion() > opt_.global_bound) {
     at_ = std::move(before);

@@ -35,6 +35,13 @@ enum class Priority {
   MMethod,    ///< Maggiordomo et al.: smallest err * min(B/L) * min(area) * penalty first, with refusals
 };
 
+/// The seam price of the first pass (MergeOptions::seam_price; docs/mergers.md, "Seam price").
+enum class SeamPrice {
+  Off,   ///< no price
+  On,    ///< first-pass merges are priced
+  Both,  ///< the whole merging runs twice, without and with the price; the atlas leaving less seam is kept
+};
+
 /// What happens after the region-constrained queue is empty.
 enum class SecondPass {
   None,           ///< stop (the paper's behaviour)
@@ -56,6 +63,18 @@ struct MergeOptions {
   /// global_bound (docs/mergers.md step 7).
   double repaired_local_bound = 0.025;
   double repaired_global_share = 0.5;
+  /// On: in the first pass, a move whose share of the distortion budget (its change of the error sum
+  /// over global_bound x the weight of every face) exceeds max_seam_price x its share of the input's
+  /// seam (its 3D seam length over the input's) is refused as `price`; the second pass has no such
+  /// limit. Where the budget binds, it goes to the merges that weld the most seam for it. Both: the
+  /// whole merging without and with the price, the atlas leaving less 3D seam kept (docs/mergers.md,
+  /// "Seam price").
+  SeamPrice seam_price = SeamPrice::Off;
+  double max_seam_price = 5;  ///< > 0: see seam_price
+  /// Models with more faces merge once, without the price, whatever seam_price says when it is Both:
+  /// the two runs double the merger's time and hold one more atlas (the 100k-face synthetic factory:
+  /// merger wall 6.9 -> 14.6 s, peak 183 -> 229 MiB), which the 1M-face one cannot afford (1 GB).
+  size_t seam_price_both_max_faces = 300000;
   long long max_merges = 100000000;  ///< stop after this many accepted merges (>= 0)
   int max_attempts = 3;         ///< attempts per chart pair (a rejected pair is retried when a chart changes)
   int max_free_vertices = 2000; ///< cap on the free region (nearest wedges first)
@@ -83,6 +102,10 @@ struct MergeOptions {
   /// unspent, and the trial is kept only when it leaves less seam (docs/mergers.md, "The trial's
   /// own limits").
   int unconstrained_trial_max_attempts = 0;
+  /// The unconstrained trial of a priced run (seam_price on, or the priced half of both) prices its
+  /// first pass too only with this (docs/mergers.md, "Seam price": better on the urban tiles, worse on
+  /// the Cedar Creek rooms, hence both).
+  bool unconstrained_trial_seam_price = false;
   double unconstrained_trial_repaired_global_share = -1;
   double unconstrained_trial_second_pass_local_bound = -1;
   /// With two threads or more the trial starts on a thread of its own beside the run with regions and
@@ -150,6 +173,9 @@ struct MergeReport {
   /// 3D seam length the run with regions left cut (seam_left_length_3d of the kept run is the other).
   bool unconstrained_trial_run = false, unconstrained_trial_kept = false;
   double regions_seam_left_length_3d = 0;
+  /// seam_price = both: the priced run's atlas was kept; the 3D seam the unpriced run left cut.
+  bool seam_price_kept = false;
+  double unpriced_seam_left_length_3d = 0;
   /// The trial on a thread beside the run with regions (two threads or more): "ended" (it ran to its
   /// end), "dropped" (stopped when that run's distortion reached the trial's share), or "off".
   std::string unconstrained_trial_beside = "off";

@@ -546,6 +546,116 @@ TEST(MergeEngineSteps, TheUnconstrainedTrialIsKeptOnlyWhenItLeavesLessSeam) {
   }
 }
 
+/// The distortion left by welding the two squares, the right one 1.5x denser, in one region with a
+/// budget that never refuses the weld (global_bound 1): the price of that merge times the bound.
+double denser_square_weld_distortion() {
+  test::Run run(two_squares(false, 1.5));
+  ArapSolver solver;
+  MergeOptions o;
+  o.global_bound = 1;
+  const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {0, 0, 0, 0}, o, solver, {});
+  EXPECT_EQ(r.charts_out, 1u);
+  return r.distortion_out;
+}
+
+TEST(MergeEngineSteps, TheSeamPriceRefusesAFirstPassMergeThatSpendsTheBudgetOutOfProportion) {
+  // By hand: the two squares in one region, the right one 1.5x denser, so welding them costs ARAP
+  // error. Their shared edge (3D length 1) is the input's whole seam, so the merge's share of the seam
+  // is 1 and its price is its share of the budget: D / global_bound, D the distortion it leaves (the
+  // input's is 0). A cap just under that price refuses it (`price`, the edge left cut under that
+  // reason); just over, it merges; with the second pass (no cap there) it merges after the refusal.
+  const std::vector<int> one_region{0, 0, 0, 0};
+  ArapSolver solver;
+  MergeOptions o;
+  o.global_bound = 1;  // the budget itself never refuses the weld
+  const double price = denser_square_weld_distortion() / o.global_bound;
+  ASSERT_GT(price, 1e-4);
+  o.seam_price = SeamPrice::On;
+  for (const bool merged : {false, true}) {
+    test::Run run(two_squares(false, 1.5));
+    const Atlas input = run.ctx.atlas;
+    o.max_seam_price = price * (merged ? 1.01 : 0.99);
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, one_region, o, solver, {});
+    EXPECT_EQ(r.charts_out, merged ? 1u : 2u) << o.max_seam_price;
+    EXPECT_EQ(r.rejected.count("price"), merged ? 0u : 1u);
+    if (!merged) {
+      EXPECT_EQ(r.rejected.at("price"), 1u);
+      EXPECT_NEAR(r.seam_left.at("price").length_3d, 1.0, 1e-12);
+      EXPECT_EQ(run.ctx.atlas.wedge_uv, input.wedge_uv);
+      EXPECT_EQ(run.ctx.atlas.face_wedge, input.face_wedge);
+    }
+    EXPECT_EQ(r.flipped_out, 0u);
+  }
+  {
+    test::Run run(two_squares(false, 1.5));
+    o.max_seam_price = price * 0.99;
+    o.second_pass = SecondPass::AcrossRegions;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, one_region, o, solver, {});
+    EXPECT_EQ(r.charts_out, 1u);
+    EXPECT_EQ(r.rejected.at("price"), 1u);
+    EXPECT_EQ(r.accepted_second_pass, 1u);
+    EXPECT_NEAR(r.distortion_out, price * o.global_bound, 1e-9);
+    test::expect_valid_atlas(run);
+  }
+}
+
+TEST(MergeEngineSteps, SeamPriceBothKeepsTheAtlasWithLessSeamAndTheTrialIsPricedOnlyWhenAsked) {
+  // The two squares of the test above, the cap just under the weld's price, no second pass.
+  const std::vector<int> one_region{0, 0, 0, 0};
+  ArapSolver solver;
+  MergeOptions o;
+  o.global_bound = 1;
+  const double price = denser_square_weld_distortion() / o.global_bound;
+  o.max_seam_price = price * 0.99;
+  // Both ways: the run without the price merges (seam left 0), the priced one leaves the edge cut
+  // (1): the unpriced atlas is kept.
+  {
+    test::Run run(two_squares(false, 1.5));
+    o.second_pass = SecondPass::None;
+    o.seam_price = SeamPrice::Both;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, one_region, o, solver, {});
+    EXPECT_EQ(r.charts_out, 1u);
+    EXPECT_FALSE(r.seam_price_kept);
+    EXPECT_EQ(r.unpriced_seam_left_length_3d, 0.0);
+    EXPECT_EQ(r.rejected.count("price"), 0u);
+    test::expect_valid_atlas(run);
+    o.seam_price = SeamPrice::On;
+  }
+  // The unconstrained trial (two regions, no second pass: only the trial can weld the pair) merges
+  // without the price unless unconstrained_trial_seam_price says otherwise.
+  o.second_pass = SecondPass::None;
+  o.unconstrained_trial = true;
+  for (const bool priced : {false, true}) {
+    test::Run run(two_squares(false, 1.5));
+    o.unconstrained_trial_seam_price = priced;
+    const MergeReport r = run_merges(run.mesh, run.topo, run.ctx.atlas, {0, 0, 1, 1}, o, solver, {});
+    EXPECT_TRUE(r.unconstrained_trial_run);
+    EXPECT_EQ(r.unconstrained_trial_kept, !priced);
+    EXPECT_EQ(r.charts_out, priced ? 2u : 1u);
+  }
+  // Declared once: off by default, the cap 5, never 0 or below (no cap that refuses everything).
+  const std::vector<OptionSpec> specs = merge_option_specs();
+  json values = json::object();
+  for (const OptionSpec& sp : specs) {
+    values[sp.key] = sp.default_value;
+    if (sp.key == "max_seam_price") {
+      EXPECT_EQ(check_option_value(sp, 0), "= 0 outside [1e-06, 1e+06]");
+    }
+  }
+  const MergeOptions d = merge_options_from(Options(values));
+  EXPECT_EQ(d.seam_price, SeamPrice::Off);
+  EXPECT_FALSE(d.unconstrained_trial_seam_price);
+  EXPECT_EQ(d.max_seam_price, 5);
+  EXPECT_EQ(d.seam_price_both_max_faces, 300000u);
+  values["seam_price"] = "both";
+  values["max_seam_price"] = 3.5;
+  values["seam_price_both_max_faces"] = 7;
+  const MergeOptions m = merge_options_from(Options(values));
+  EXPECT_EQ(m.seam_price, SeamPrice::Both);
+  EXPECT_EQ(m.max_seam_price, 3.5);
+  EXPECT_EQ(m.seam_price_both_max_faces, 7u);
+}
+
 /// Runs run_merges on the two squares of `run` (two regions, the unconstrained trial on in `o`) and
 /// checks that the trial ran and, as `merged` says, was kept with one chart and no seam left, or not
 /// kept with two charts and the shared edge (3D length 1) left cut.
